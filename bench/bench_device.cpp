@@ -1,0 +1,19 @@
+// bench_device.cpp — cost of reading the scripted device once per tick.
+#include <palpate/device.h>
+
+#include <benchmark/benchmark.h>
+
+static void BM_ScriptedDeviceRead(benchmark::State& state) {
+  std::vector<palpate::Waypoint> w;
+  for (int i = 0; i < 100; ++i) w.push_back({i * 0.1, palpate::Vec3(0, -0.001 * i, 0)});
+  palpate::ScriptedDevice dev(w, {});
+  palpate::DeviceState s;
+  double t = 0;
+  for (auto _ : state) {
+    dev.read(t, s);
+    benchmark::DoNotOptimize(s.position);
+    t += 0.001;
+    if (t > 10) t = 0;
+  }
+}
+BENCHMARK(BM_ScriptedDeviceRead);

@@ -1,0 +1,24 @@
+# Every dependency is a Debian package installed by scripts/install-deps; nothing is fetched here.
+find_package(Threads REQUIRED)
+find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+find_package(assimp REQUIRED)
+find_package(yaml-cpp REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(fmt REQUIRED)
+find_package(spdlog REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+
+
+# Gmsh ships no CMake package on Debian: find its C++ API header and library.
+find_path(GMSH_INCLUDE_DIR gmsh.h REQUIRED)
+find_library(GMSH_LIBRARY NAMES gmsh REQUIRED)
+add_library(palpate_gmsh INTERFACE)
+target_include_directories(palpate_gmsh SYSTEM INTERFACE ${GMSH_INCLUDE_DIR})
+target_link_libraries(palpate_gmsh INTERFACE ${GMSH_LIBRARY})
+
+if(PALPATE_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+endif()
+if(PALPATE_BUILD_BENCH)
+  find_package(benchmark REQUIRED)
+endif()

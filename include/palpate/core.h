@@ -1,0 +1,61 @@
+// palpate/core.h — basic types shared by every part of palpate: vectors, errors, results.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <string>
+#include <utility>
+#include <variant>
+
+namespace palpate {
+
+using Vec3 = Eigen::Vector3d;  // metres, newtons, metres per second: SI throughout (DESIGN.md §5)
+using Vec3f = Eigen::Vector3f;
+using Quat = Eigen::Quaterniond;
+
+// A load-time error: what went wrong, where (file, line, key or element), and what was expected.
+// Errors during a step are never reported this way; they are counted and recovered (STYLE.md 7).
+struct Error {
+  std::string message;
+};
+
+// The value of a fallible load-time operation, or the error that stopped it.
+template <class T>
+class [[nodiscard]] Result {
+ public:
+  Result(T value) : v_(std::move(value)) {}            // NOLINT(google-explicit-constructor)
+  Result(Error error) : v_(std::move(error)) {}        // NOLINT(google-explicit-constructor)
+  bool ok() const { return v_.index() == 0; }
+  explicit operator bool() const { return ok(); }
+  T& value() & { return std::get<0>(v_); }
+  const T& value() const& { return std::get<0>(v_); }
+  T&& value() && { return std::get<0>(std::move(v_)); }
+  T* operator->() { return &std::get<0>(v_); }
+  const T* operator->() const { return &std::get<0>(v_); }
+  T& operator*() & { return std::get<0>(v_); }
+  const T& operator*() const& { return std::get<0>(v_); }
+  const Error& error() const { return std::get<1>(v_); }
+
+ private:
+  std::variant<T, Error> v_;
+};
+
+// Result of an operation that produces nothing but may fail.
+class [[nodiscard]] Status {
+ public:
+  Status() = default;
+  Status(Error error) : error_(std::move(error)), ok_(false) {}  // NOLINT
+  bool ok() const { return ok_; }
+  explicit operator bool() const { return ok_; }
+  const Error& error() const { return error_; }
+
+ private:
+  Error error_;
+  bool ok_ = true;
+};
+
+// The library's version, "MAJOR.MINOR.PATCH".
+const char* version();
+
+}  // namespace palpate

@@ -1,0 +1,43 @@
+// palpate/run.h — a headless run of a scene at a fixed tick, with its outputs.
+#pragma once
+
+#include <palpate/core.h>
+#include <palpate/scene.h>
+
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace palpate {
+
+struct RunOptions {
+  std::filesystem::path out;                         // output directory; "" = the scene's
+  std::function<void(double fraction)> progress;     // called now and then, off the tick path
+};
+
+struct RunEvent {
+  double time = 0;     // s
+  std::string kind;    // "puncture", ...
+  std::string tissue;  // the tissue's name
+  double depth = 0;    // m
+  double force = 0;    // N
+};
+
+struct RunSummary {
+  size_t ticks = 0;
+  double dt = 0;                                  // s
+  double step_median = 0, step_p99 = 0, step_max = 0;  // s, wall time of one tick's work
+  double max_force = 0;                           // N, largest force sent to the device
+  std::vector<RunEvent> events;
+  std::filesystem::path csv, summary_json;        // where the outputs went
+};
+
+// Run `scene` for its duration at its fixed tick, with its device; write `run.csv` and
+// `summary.json` atomically into the output directory.
+Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options = {});
+
+// Write `text` to `file` atomically: a temporary file in the same directory, then rename.
+Status write_file_atomic(const std::filesystem::path& file, const std::string& text);
+
+}  // namespace palpate

@@ -1,0 +1,106 @@
+// palpate/scene.h — scene definitions (plain structs with defaults) and the YAML scene loader.
+#pragma once
+
+#include <palpate/charged_def.h>
+#include <palpate/core.h>
+#include <palpate/params.h>
+#include <palpate/spring_def.h>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace palpate {
+
+struct ToolDef {
+  std::string kind = "sphere";  // sphere | needle
+  double radius = 0.001;        // m, sphere radius or needle shaft radius
+  double length = 0.08;         // m, needle shaft length (unused by a sphere)
+  Vec3 axis = Vec3(0, -1, 0);   // unit direction the needle points, in the device frame
+};
+
+struct Waypoint {
+  double t = 0;                     // s
+  Vec3 position = Vec3::Zero();     // m
+};
+
+struct DeviceDef {
+  std::string kind = "scripted";    // scripted | replay | openhaptics
+  std::vector<Waypoint> waypoints;  // scripted: timed waypoints, linearly interpolated
+  std::filesystem::path trajectory; // scripted: CSV of t,x,y,z instead of waypoints
+  std::filesystem::path recording;  // replay: a run's CSV
+  double max_force = 3.3;           // N (Geomagic Touch peak force)
+  double max_force_rate = 200.0;    // N/s, largest change of the force sent
+  double ramp_in = 0.1;             // s, forces ramp in from zero over this time at start
+  double stiffness = 1000.0;        // N/m, device's nominal maximum stiffness (virtual coupling)
+  double damping = 2.0;             // N·s/m, device's nominal maximum damping
+};
+
+struct CameraDef {
+  Vec3 position = Vec3(0.06, 0.05, 0.08);  // m
+  Vec3 target = Vec3::Zero();              // m
+  double fov = 40.0;                       // degrees, vertical
+  int width = 800, height = 600;           // pixels
+};
+
+// A generated rectangular patch of particles or vertices.
+struct PatchDef {
+  std::string shape = "flat";         // flat | cylinder | sphere
+  double width = 0.04;                // m, along the patch's u direction
+  double height = 0.04;               // m, along its v direction
+  double spacing = 0.001;             // m, distance between neighbouring particles
+  double radius = 0.02;               // m, for cylinder and sphere shapes
+  Vec3 center = Vec3::Zero();         // m, centre of the patch
+  Vec3 normal = Vec3(0, 1, 0);        // outward normal at the centre
+};
+
+// A mesh file and how to place it.
+struct MeshRef {
+  std::filesystem::path file;         // resolved against the scene file's directory
+  double scale = 1.0;                 // multiplies coordinates (mesh units to metres)
+  Vec3 translate = Vec3::Zero();      // m, added after scaling
+};
+
+struct TissueDef {
+  std::string name;
+  std::string model = "charged_particles";  // charged_particles | mass_spring
+  std::optional<PatchDef> patch;           // exactly one of patch and mesh
+  std::optional<MeshRef> mesh;
+  ChargedMaterialDef charged;              // used when model == charged_particles
+  SpringMaterialDef spring;                // used when model == mass_spring
+  std::vector<int> anchors;                // fixed vertex or particle indices
+  int line = 0;                            // line in the scene file, for messages
+};
+
+struct SceneDef {
+  std::filesystem::path file;              // where it was read from ("" if from memory)
+  std::string name = "scene";
+  double duration = 1.0;                   // s
+  double dt = 0.001;                       // s, the haptic tick
+  std::filesystem::path output = "out";    // resolved against the scene file's directory
+  ToolDef tool;
+  DeviceDef device;
+  std::optional<CameraDef> camera;
+  std::vector<TissueDef> tissues;
+};
+
+// Read and validate a YAML scene. Relative paths in it are resolved against its directory.
+// Unknown keys, missing required keys, wrong types and out-of-range values are errors naming
+// the file, line, key and the valid range.
+Result<SceneDef> load_scene(const std::filesystem::path& file);
+// The same from text; `name` stands for the file in messages, `base_dir` resolves paths.
+Result<SceneDef> parse_scene(const std::string& yaml, const std::string& name,
+                             const std::filesystem::path& base_dir = {});
+
+// Markdown reference of every scene key: type, unit, range and default (from the tables).
+std::string scene_reference_markdown();
+
+std::span<const Param<ToolDef>> param_table(const ToolDef*);
+std::span<const Param<DeviceDef>> param_table(const DeviceDef*);
+std::span<const Param<CameraDef>> param_table(const CameraDef*);
+std::span<const Param<PatchDef>> param_table(const PatchDef*);
+std::span<const Param<MeshRef>> param_table(const MeshRef*);
+std::span<const Param<SceneDef>> param_table(const SceneDef*);
+
+}  // namespace palpate

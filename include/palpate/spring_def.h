@@ -1,0 +1,24 @@
+// palpate/spring_def.h — parameters of the mass-spring-damper organ model (scene-file material).
+#pragma once
+
+#include <palpate/params.h>
+
+namespace palpate {
+
+// Material of one mass-spring-damper organ (DESIGN.md §2). SI units.
+struct SpringMaterialDef {
+  std::string topology = "edges";  // all_pairs | edges | tet_edges
+  std::string solver = "desbrun";  // desbrun | sparse | exact
+  double stiffness = 100.0;        // N/m per spring; ignored when youngs_modulus > 0
+  double youngs_modulus = 0.0;     // Pa; > 0 derives each spring's stiffness from it
+  double spring_damping = 0.1;     // N·s/m along each spring
+  double point_damping = 0.5;      // N·s/m, the paper's −γẋ on each mass
+  double mass = 0.1;               // kg, total; ignored when density > 0
+  double density = 0.0;            // kg/m³; > 0 lumps mass from volume
+  bool gravity = true;             // 9.8 m/s² along −y
+  std::string predictor = "";      // predictor file; "" = next to the output
+};
+
+std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*);
+
+}  // namespace palpate

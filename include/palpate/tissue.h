@@ -1,0 +1,72 @@
+// palpate/tissue.h — the interface every tissue model offers the haptic loop, and its factory.
+#pragma once
+
+#include <palpate/core.h>
+#include <palpate/scene.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace palpate {
+
+// The tool as the tissues see it this tick. For a sphere probe `tip` is its centre; for a needle
+// it is the needle's tip and `axis` points from the handle to the tip.
+struct ToolState {
+  double time = 0;              // s since the start of the run
+  Vec3 tip = Vec3::Zero();      // m, the haptic interaction point (HIP)
+  Vec3 axis = Vec3(0, -1, 0);   // unit
+  Vec3 velocity = Vec3::Zero(); // m/s
+  double radius = 0.001;        // m
+  double length = 0.0;          // m, needle shaft length (0 for a sphere)
+  bool needle = false;
+  bool grasp = false;           // grasping: a model that supports it pulls along with the tool
+};
+
+// Something that happened in a tissue during a step (a puncture, a watchdog reset, ...).
+// Fixed-size and allocation-free so a step can emit it.
+struct TissueEvent {
+  double time = 0;       // s
+  const char* kind = ""; // static string: "puncture", "exit", "reset", ...
+  int tissue = -1;       // index of the tissue in the scene
+  double depth = 0;      // m, tool depth below the tissue's rest surface at the event
+  double force = 0;      // N, magnitude of the peak force that led to it
+};
+
+// Positions to draw, copied out of the state (the render thread never reads live state).
+struct TissueSnapshot {
+  std::vector<Vec3f> points;              // particles or masses, m
+  std::vector<int> rows_cols;             // {rows, cols} when points form a control grid, else {}
+  std::vector<std::array<int, 3>> triangles;  // surface over the points, if any
+  std::vector<std::array<int, 2>> links;      // neighbour links or springs
+};
+
+// A tissue model instance wired into a scene. `step` is the 1 kHz path: noexcept, no allocation,
+// no locks, no I/O. Numerical trouble is recovered inside (state reset, zero force, an event).
+class Tissue {
+ public:
+  virtual ~Tissue() = default;
+  virtual const std::string& name() const = 0;
+  // Advance by dt seconds with the tool where `tool` says; return the force the tissue exerts on
+  // the tool (N). Events are appended to the tissue's queue, drained by `drain_events`.
+  virtual Vec3 step(const ToolState& tool, double dt) noexcept = 0;
+  // Names of the per-tissue figures written as CSV columns; fixed once built.
+  virtual std::span<const std::string> figure_names() const = 0;
+  // Current values of those figures, out.size() == figure_names().size().
+  virtual void figures(std::span<double> out) const noexcept = 0;
+  // Move queued events into `out`; returns how many. Never allocates.
+  virtual size_t drain_events(std::span<TissueEvent> out) noexcept = 0;
+  // Copy what is drawn into `snap` (may allocate: not called from the haptic thread's step).
+  virtual void snapshot(TissueSnapshot& snap) const = 0;
+  // Back to the rest state.
+  virtual void reset() noexcept = 0;
+};
+
+// Build the tissue a scene describes (loads meshes, precomputes what the model needs).
+// `index` is the tissue's place in the scene, used in events and messages.
+Result<std::unique_ptr<Tissue>> make_tissue(const SceneDef& scene, int index);
+
+}  // namespace palpate

@@ -1,0 +1,93 @@
+// scripted_device.cpp — the scripted backend: timed waypoints or a CSV trajectory, interpolated.
+#include <palpate/device.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace palpate {
+
+ScriptedDevice::ScriptedDevice(std::vector<Waypoint> waypoints, DeviceLimits limits)
+    : waypoints_(std::move(waypoints)), limits_(limits) {
+  if (waypoints_.empty()) waypoints_.push_back(Waypoint{});
+}
+
+bool ScriptedDevice::read(double t, DeviceState& out) noexcept {
+  const size_t n = waypoints_.size();
+  out.time = t;
+  out.orientation = Quat::Identity();
+  out.buttons = 0;
+  if (n == 1 || t <= waypoints_.front().t) {
+    out.position = waypoints_.front().position;
+    out.velocity.setZero();
+    return true;
+  }
+  if (t >= waypoints_.back().t) {
+    out.position = waypoints_.back().position;
+    out.velocity.setZero();
+    return true;
+  }
+  // Ticks move forward, so the cached segment is almost always right; rewind if time went back.
+  if (segment_ >= n - 1 || waypoints_[segment_].t > t) segment_ = 0;
+  while (segment_ + 1 < n - 1 && waypoints_[segment_ + 1].t <= t) ++segment_;
+  const Waypoint& a = waypoints_[segment_];
+  const Waypoint& b = waypoints_[segment_ + 1];
+  const double span = b.t - a.t;
+  const double s = span > 0 ? (t - a.t) / span : 1.0;
+  out.position = a.position + s * (b.position - a.position);
+  out.velocity = span > 0 ? Vec3((b.position - a.position) / span) : Vec3::Zero();
+  return true;
+}
+
+void ScriptedDevice::write(const Vec3& force, const Vec3&) noexcept { last_force_ = force; }
+
+Result<std::vector<Waypoint>> load_trajectory_csv(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) return Error{file.string() + ": cannot open trajectory file"};
+  std::vector<Waypoint> points;
+  std::string line;
+  int lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.empty() || line[0] == '#') continue;
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream ss(line);
+    Waypoint w;
+    if (!(ss >> w.t >> w.position.x() >> w.position.y() >> w.position.z())) {
+      if (points.empty() && lineno == 1) continue;  // a header line
+      return Error{file.string() + ":" + std::to_string(lineno) +
+                   ": expected four numbers t,x,y,z (s, m, m, m)"};
+    }
+    if (!std::isfinite(w.t) || !w.position.allFinite())
+      return Error{file.string() + ":" + std::to_string(lineno) + ": value is NaN or infinite"};
+    if (!points.empty() && w.t < points.back().t)
+      return Error{file.string() + ":" + std::to_string(lineno) + ": time " + std::to_string(w.t) +
+                   " s goes back (previous " + std::to_string(points.back().t) + " s)"};
+    points.push_back(w);
+  }
+  if (points.empty()) return Error{file.string() + ": trajectory has no rows (expected t,x,y,z)"};
+  return points;
+}
+
+Result<std::unique_ptr<Device>> make_device(const SceneDef& scene) {
+  const DeviceDef& d = scene.device;
+  DeviceLimits limits;
+  limits.max_force = d.max_force;
+  limits.max_force_rate = d.max_force_rate;
+  limits.stiffness = d.stiffness;
+  limits.damping = d.damping;
+  if (d.kind == "scripted") {
+    std::vector<Waypoint> points = d.waypoints;
+    if (!d.trajectory.empty()) {
+      auto loaded = load_trajectory_csv(d.trajectory);
+      if (!loaded) return loaded.error();
+      points = std::move(*loaded);
+    }
+    return std::unique_ptr<Device>(new ScriptedDevice(std::move(points), limits));
+  }
+  return Error{scene.file.string() + ": device kind '" + d.kind +
+               "' is not available in this build (use kind: scripted)"};
+}
+
+}  // namespace palpate

@@ -1,0 +1,9 @@
+// tissue.cpp — the mass-spring-damper model wired as a scene tissue (being built: issue 5).
+#include "tissue/factory.h"
+
+namespace palpate {
+Result<std::unique_ptr<Tissue>> make_spring_tissue(const SceneDef&, int) {
+  return Error{"the mass-spring model is not built yet"};
+}
+std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) { return {}; }
+}  // namespace palpate
