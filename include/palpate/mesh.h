@@ -51,6 +51,10 @@ Status validate(const TetMesh& m, const std::string& where);
 // Recompute area-weighted unit vertex normals of a surface.
 void compute_normals(SurfaceMesh& m);
 
+// Fill a closed, manifold surface with tetrahedra (Gmsh's mesher). `max_edge` (m) bounds the
+// tetrahedra's size, 0 = as the surface's edges; the result meets Gmsh's default quality bound.
+Result<TetMesh> tetrahedralize(const SurfaceMesh& surface, double max_edge = 0.0);
+
 // The boundary triangles of a tetrahedral mesh, outward oriented, over the same vertices.
 SurfaceMesh boundary_surface(const TetMesh& m);
 

@@ -5,5 +5,4 @@ namespace palpate {
 Result<std::unique_ptr<Tissue>> make_charged_tissue(const SceneDef&, int) {
   return Error{"the charged-particle model is not built yet"};
 }
-std::span<const Param<ChargedMaterialDef>> param_table(const ChargedMaterialDef*) { return {}; }
 }  // namespace palpate

@@ -5,5 +5,4 @@ namespace palpate {
 Result<std::unique_ptr<Tissue>> make_spring_tissue(const SceneDef&, int) {
   return Error{"the mass-spring model is not built yet"};
 }
-std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) { return {}; }
 }  // namespace palpate

@@ -1,0 +1,24 @@
+// params.cpp — the scene keys of the mass-spring-damper material: type, unit, range, meaning.
+#include <palpate/spring_def.h>
+
+namespace palpate {
+
+std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) {
+  using D = SpringMaterialDef;
+  static const Param<D> table[] = {
+      {"topology", &D::topology, 0, 0, "", "which vertex pairs get a spring", "all_pairs|edges|tet_edges"},
+      {"solver", &D::solver, 0, 0, "", "implicit integrator", "desbrun|sparse|exact"},
+      {"stiffness", &D::stiffness, 0.0, 1e9, "N/m", "stiffness of each spring"},
+      {"youngs_modulus", &D::youngs_modulus, 0.0, 1e10, "Pa",
+       "when > 0, each spring's stiffness is derived from it (docs/models/mass-spring.md)"},
+      {"spring_damping", &D::spring_damping, 0.0, 1e6, "N·s/m", "damping along each spring"},
+      {"point_damping", &D::point_damping, 0.0, 1e6, "N·s/m", "the paper's −γẋ on every mass"},
+      {"mass", &D::mass, 1e-9, 1e6, "kg", "total mass, shared by the vertices"},
+      {"density", &D::density, 0.0, 1e5, "kg/m³", "when > 0, vertex masses are lumped from volume"},
+      {"gravity", &D::gravity, 0, 1, "", "9.8 m/s² along −y"},
+      {"predictor", &D::predictor, 0, 0, "", "predictor file written by `palpate precompute`"},
+  };
+  return table;
+}
+
+}  // namespace palpate
