@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,12 @@ struct RunSummary {
 // Run `scene` for its duration at its fixed tick, with its device; write `run.csv` and
 // `summary.json` atomically into the output directory.
 Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options = {});
+
+// The same with tissues built by the caller (a model of your own, or ones already built);
+// `scene.tissues` is then not used.
+class Tissue;
+Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<Tissue>> tissues,
+                             const RunOptions& options = {});
 
 // Write `text` to `file` atomically: a temporary file in the same directory, then rename.
 Status write_file_atomic(const std::filesystem::path& file, const std::string& text);
