@@ -15,6 +15,7 @@ namespace palpate {
 struct RunOptions {
   std::filesystem::path out;                         // output directory; "" = the scene's
   std::function<void(double fraction)> progress;     // called now and then, off the tick path
+  bool plots = true;                                 // force_time.png, force_depth.png (gnuplot)
 };
 
 struct RunEvent {
@@ -32,6 +33,8 @@ struct RunSummary {
   double max_force = 0;                           // N, largest force sent to the device
   std::vector<RunEvent> events;
   std::filesystem::path csv, summary_json;        // where the outputs went
+  std::vector<std::filesystem::path> plots;       // PNG plots written, if any
+  std::string plot_error;                         // why plots are missing, if they are
 };
 
 // Run `scene` for its duration at its fixed tick, with its device; write `run.csv` and

@@ -4,6 +4,8 @@
 #include <palpate/safety.h>
 #include <palpate/tissue.h>
 
+#include "io/plots.h"
+
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -182,7 +184,30 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   for (const RunEvent& e : events)
     j["events"].push_back({{"time_s", e.time}, {"kind", e.kind}, {"tissue", e.tissue},
                            {"depth_m", e.depth}, {"force_N", e.force}});
+  // Plots of force against time and depth (a tool is always present in a scene).
+  if (options.plots && ticks > 0) {
+    PlotSeries ps;
+    ps.time.resize(ticks), ps.depth.resize(ticks), ps.force.resize(ticks), ps.axial.resize(ticks);
+    const Vec3 axis = scene.tool.axis.normalized();
+    size_t contact = ticks;
+    for (size_t k = 0; k < ticks && contact == ticks; ++k)
+      if (rows[k * ncol + 7] > 1e-9) contact = k;
+    const size_t ref = contact == ticks ? 0 : contact;
+    const Vec3 tip0(rows[ref * ncol + 1], rows[ref * ncol + 2], rows[ref * ncol + 3]);
+    for (size_t k = 0; k < ticks; ++k) {
+      const double* row = &rows[k * ncol];
+      ps.time[k] = row[0];
+      ps.depth[k] = (Vec3(row[1], row[2], row[3]) - tip0).dot(axis);
+      ps.force[k] = row[7];
+      ps.axial[k] = -Vec3(row[4], row[5], row[6]).dot(axis);
+    }
+    if (Status st = plot_run(out, scene.name, ps, events, &summary.plots); !st)
+      summary.plot_error = st.error().message;
+  }
   j["outputs"] = {{"csv", summary.csv.filename().string()}};
+  j["outputs"]["plots"] = nlohmann::json::array();
+  for (const auto& p : summary.plots) j["outputs"]["plots"].push_back(p.filename().string());
+  if (!summary.plot_error.empty()) j["outputs"]["plot_error"] = summary.plot_error;
   if (Status s = write_file_atomic(summary.summary_json, j.dump(2) + "\n"); !s) return s.error();
   return summary;
 }

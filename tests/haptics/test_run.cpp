@@ -116,6 +116,18 @@ TEST(Run, FixedTicksCsvAndSummary) {
   EXPECT_EQ(j["events"][0]["tissue"], "floor");
   EXPECT_GT(j["step_time_s"]["p99"].get<double>(), 0.0);
   EXPECT_GE(j["step_time_s"]["max"].get<double>(), j["step_time_s"]["median"].get<double>());
+
+  // Plots: both PNGs exist and are PNGs, and the script marks the one event on each plot.
+  ASSERT_EQ(j["outputs"]["plots"].size(), 2u) << j.dump(2);
+  for (const char* png : {"force_time.png", "force_depth.png"}) {
+    const std::string bytes = slurp(out / png);
+    ASSERT_GT(bytes.size(), 1000u) << png;
+    EXPECT_EQ(bytes.substr(1, 3), "PNG") << png;
+  }
+  const std::string gp = slurp(out / "plots.gp");
+  size_t marks = 0;
+  for (size_t at = gp.find("'puncture floor'"); at != std::string::npos; at = gp.find("'puncture floor'", at + 1)) ++marks;
+  EXPECT_EQ(marks, 2u);
 }
 
 TEST(Run, ForceClampedToDeviceMaximum) {
