@@ -57,7 +57,7 @@ std::span<const Param<Waypoint>> param_table(const Waypoint*) {
   using D = Waypoint;
   static const Param<D> table[] = {
       {"t", &D::t, 0.0, 3600.0, "s", "time of the waypoint; not before the previous one"},
-      {"position", &D::position, -1.0, 1.0, "m", "tool position (the HIP) at time t"},
+      {"position", &D::position, -10.0, 10.0, "m", "tool position (the HIP) at time t"},
   };
   return table;
 }

@@ -210,7 +210,8 @@ Keys read_table(const Ctx& c, const YAML::Node& map, const std::string& path, in
     if (const auto seen = keys.lines.find(key); seen != keys.lines.end())
       c.fail(kline, kpath, "duplicate key (first on line " + std::to_string(seen->second) + ")");
     keys.lines[key] = kline;
-    const int vline = line_of(v, kline);
+    // A null value (`key:` with nothing after it) carries the mark of whatever follows: use the key's line.
+    const int vline = v.IsNull() ? kline : line_of(v, kline);
 
     const auto row = std::find_if(table.begin(), table.end(),
                                   [&](const Param<Def>& p) { return key == p.key; });
