@@ -78,7 +78,7 @@ tissues:
       spacing: 0.0008
       radius: 0.015
       center: [0.001, -0.002, 0.003]
-      normal: [0, 0, 3]
+      normal: [0, 0, 0.5]
     material:
       max_displacement: 0.005
       elasticity: 12.5
