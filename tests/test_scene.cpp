@@ -369,6 +369,11 @@ TEST(SceneErrors, EmptyFileAndNonMappingTopLevel) {
   EXPECT_EQ(error_of(""), empty);
   EXPECT_EQ(error_of("# only a comment\n\n"), empty);
   EXPECT_EQ(error_of("- a\n- b\n"), "s.yaml:1: expected a mapping of scene keys at the top level, got a list of 2");
+  EXPECT_EQ(error_of(std::string(kOneTissue) + "---\nname: second\n"),
+            "s.yaml:5: a second YAML document starts here; expected one scene per file");
+  // A short key far from every valid one gets no suggestion.
+  EXPECT_EQ(error_of(std::string("<<: {}\n") + kOneTissue),
+            "s.yaml:1: <<: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, tissues");
   EXPECT_EQ(error_of("just text\n"),
             "s.yaml:1: expected a mapping of scene keys at the top level, got 'just text'");
 }
@@ -409,6 +414,8 @@ TEST(SceneErrors, NanAndInfinityAreRejected) {
   EXPECT_EQ(error_of(std::string("camera: {target: [0, -.inf, 0]}\n") + kOneTissue),
             "s.yaml:1: camera.target[1]: expected a finite number (m), got '-.inf'");
   EXPECT_EQ(error_of(std::string("dt: nan\n") + kOneTissue), "s.yaml:1: dt: expected a finite number (s), got 'nan'");
+  EXPECT_EQ(error_of(std::string("duration: 1e400\n") + kOneTissue),
+            "s.yaml:1: duration: expected a finite number (s), got '1e400'");
 }
 
 TEST(SceneErrors, CrossFieldChecks) {
@@ -473,8 +480,8 @@ TEST(SceneLoad, ErrorsNameTheFileAsGiven) {
   auto r = palpate::load_scene(file);
   fs::remove(file);
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error().message.substr(0, file.string().size() + 45),
-            file.string() + ":4: tissues[0].patch.widht: unknown key (did ");
+  EXPECT_EQ(r.error().message.substr(0, file.string().size() + 63),
+            file.string() + ":4: tissues[0].patch.widht: unknown key (did you mean 'width'?)");
 }
 
 TEST(SceneExamples, EveryDataSceneLoads) {

@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <functional>
@@ -17,6 +18,7 @@
 #include <map>
 #include <sstream>
 #include <type_traits>
+#include <vector>
 
 namespace palpate {
 namespace {
@@ -90,7 +92,10 @@ bool scalar_to_double(const std::string& s, double& x) {
   if (b != e && *b == '+') ++b;
   if (b == e) return false;
   const auto [end, ec] = std::from_chars(b, e, x);
-  return ec == std::errc() && end == e;
+  if (end != e) return false;
+  // Out of double's range (1e400): strtod gives +-HUGE_VAL (rejected as not finite) or a tiny value.
+  if (ec == std::errc::result_out_of_range) x = std::strtod(s.c_str(), nullptr);
+  return ec == std::errc() || ec == std::errc::result_out_of_range;
 }
 
 double read_number(const Ctx& c, const YAML::Node& v, const std::string& path, int line, double min,
@@ -165,20 +170,20 @@ std::string read_string(const Ctx& c, const YAML::Node& v, const std::string& pa
   return s;
 }
 
-// Levenshtein distance, for "did you mean" on unknown keys.
+// Edit distance with transpositions (optimal string alignment), for "did you mean" on unknown
+// keys: "widht" is one edit from "width".
 size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  std::vector<std::vector<size_t>> d(a.size() + 1, std::vector<size_t>(b.size() + 1));
+  for (size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
   for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diag = row[0];
-    row[0] = i;
     for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diag = up;
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
     }
   }
-  return row[b.size()];
+  return d[a.size()][b.size()];
 }
 
 // The keys of one mapping that a table did not take (sections parsed by hand), and every key's line.
@@ -248,7 +253,7 @@ Keys read_table(const Ctx& c, const YAML::Node& map, const std::string& path, in
       if (d < best_d) best_d = d, best = cand;
     }
     std::string msg = "unknown key";
-    if (!best.empty() && best_d <= std::max<size_t>(2, key.size() / 4)) msg += " (did you mean '" + best + "'?)";
+    if (!best.empty() && best_d < key.size() && best_d <= std::max<size_t>(1, key.size() / 4)) msg += " (did you mean '" + best + "'?)";
     if (other_hint) {
       const std::string hint = other_hint(key);
       if (!hint.empty()) msg += "; " + hint;
@@ -463,7 +468,10 @@ Result<SceneDef> parse_scene(const std::string& yaml, const std::string& name, c
   try {
     YAML::Node root;
     try {
-      root = YAML::Load(yaml);
+      const std::vector<YAML::Node> docs = YAML::LoadAll(yaml);
+      if (docs.size() > 1)
+        c.fail(line_of(docs[1], 0), "", "a second YAML document starts here; expected one scene per file");
+      if (!docs.empty()) root = docs[0];
     } catch (const YAML::ParserException& e) {
       std::string m = name;
       if (e.mark.line >= 0) m += ":" + std::to_string(e.mark.line + 1);
