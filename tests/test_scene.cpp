@@ -315,6 +315,9 @@ TEST(SceneErrors, WrongTypeNamesWhatWasExpected) {
   EXPECT_EQ(error_of("tissues: {name: a}\n"), "s.yaml:1: tissues: expected a non-empty list of tissues, got a mapping");
   EXPECT_EQ(error_of("tissues: []\n"), "s.yaml:1: tissues: expected a non-empty list of tissues, got a list of 0");
   EXPECT_EQ(error_of(std::string("duration:\n") + kOneTissue), "s.yaml:1: duration: expected a number (s), got nothing");
+  EXPECT_EQ(error_of(std::string("tool:\n") + kOneTissue), "s.yaml:1: tool: expected a mapping of tool keys, got nothing");
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch:\n"),
+            "s.yaml:3: tissues[0].patch: expected a mapping of patch keys, got nothing");
 }
 
 TEST(SceneErrors, OutOfRangeGivesTheRangeAndUnit) {

@@ -194,6 +194,12 @@ struct Keys {
     const auto it = lines.find(key);
     return it == lines.end() ? fallback : it->second;
   }
+  // Line of a section's value; a null value's mark points past it, so it takes its key's line.
+  int value_line(const std::string& key, int fallback) const {
+    const auto it = sections.find(key);
+    const int kline = line_or(key, fallback);
+    return it == sections.end() || it->second.IsNull() ? kline : line_of(it->second, kline);
+  }
 };
 
 // Read a mapping into `def` through its parameter table. `sections` are keys the caller parses;
@@ -298,7 +304,7 @@ DeviceDef parse_device(const Ctx& c, const YAML::Node& node, int line) {
   const Keys k = read_table(c, node, "device", line, "device", dev, kDeviceSections);
   const bool scripted = dev.kind == "scripted";
   if (const auto w = k.sections.find("waypoints"); w != k.sections.end()) {
-    const int wline = line_of(w->second, k.line_or("waypoints", line));
+    const int wline = k.value_line("waypoints", line);
     if (!scripted)
       c.fail(k.line_or("waypoints", line), "device.waypoints",
              "only a scripted device follows waypoints (kind is '" + dev.kind + "')");
@@ -366,7 +372,7 @@ TissueDef parse_tissue(const Ctx& c, const YAML::Node& node, size_t index, int l
   if (patch == k.sections.end() && mesh == k.sections.end())
     c.fail(t.line, path, "has neither 'patch' nor 'mesh'; expected exactly one");
   if (patch != k.sections.end()) {
-    const int pline = line_of(patch->second, k.line_or("patch", t.line));
+    const int pline = k.value_line("patch", t.line);
     PatchDef p;
     const Keys pk = read_table(c, patch->second, path + ".patch", pline, "patch", p);
     p.normal = unit_direction(c, p.normal, pk.line_or("normal", pline), path + ".patch.normal");
@@ -379,7 +385,7 @@ TissueDef parse_tissue(const Ctx& c, const YAML::Node& node, size_t index, int l
     }
     t.patch = p;
   } else {
-    const int mline = line_of(mesh->second, k.line_or("mesh", t.line));
+    const int mline = k.value_line("mesh", t.line);
     MeshRef m;
     const Keys mk = read_table(c, mesh->second, path + ".mesh", mline, "mesh", m, {}, kMeshRequired);
     if (m.file.empty()) c.fail(mk.line_or("file", mline), path + ".mesh.file", "expected a file name, got ''");
@@ -389,7 +395,7 @@ TissueDef parse_tissue(const Ctx& c, const YAML::Node& node, size_t index, int l
 
   const bool charged = t.model == "charged_particles";
   if (const auto mat = k.sections.find("material"); mat != k.sections.end()) {
-    const int mline = line_of(mat->second, k.line_or("material", t.line));
+    const int mline = k.value_line("material", t.line);
     const std::string mpath = path + ".material";
     Keys mk;
     if (charged) {
@@ -416,7 +422,7 @@ TissueDef parse_tissue(const Ctx& c, const YAML::Node& node, size_t index, int l
   if (!t.spring.predictor.empty()) t.spring.predictor = c.resolve(t.spring.predictor).string();
 
   if (const auto a = k.sections.find("anchors"); a != k.sections.end()) {
-    const int aline = line_of(a->second, k.line_or("anchors", t.line));
+    const int aline = k.value_line("anchors", t.line);
     if (!a->second.IsSequence())
       c.fail(aline, path + ".anchors", "expected a list of vertex or particle indices, got " + describe(a->second));
     for (size_t i = 0; i < a->second.size(); ++i) {
@@ -440,14 +446,14 @@ SceneDef parse_root(const Ctx& c, const YAML::Node& root) {
   if (s.output.empty()) c.fail(k.line_or("output", 1), "output", "expected a directory, got ''");
   s.output = c.resolve(s.output);
   if (const auto n = k.sections.find("tool"); n != k.sections.end())
-    s.tool = parse_tool(c, n->second, line_of(n->second, k.line_or("tool", 1)));
+    s.tool = parse_tool(c, n->second, k.value_line("tool", 1));
   if (const auto n = k.sections.find("device"); n != k.sections.end())
-    s.device = parse_device(c, n->second, line_of(n->second, k.line_or("device", 1)));
+    s.device = parse_device(c, n->second, k.value_line("device", 1));
   if (const auto n = k.sections.find("camera"); n != k.sections.end())
-    s.camera = parse_camera(c, n->second, line_of(n->second, k.line_or("camera", 1)));
+    s.camera = parse_camera(c, n->second, k.value_line("camera", 1));
 
   const YAML::Node list = k.sections.at("tissues");
-  const int lline = line_of(list, k.line_or("tissues", 1));
+  const int lline = k.value_line("tissues", 1);
   if (!list.IsSequence() || list.size() == 0)
     c.fail(lline, "tissues", "expected a non-empty list of tissues, got " + describe(list));
   for (size_t i = 0; i < list.size(); ++i) {
