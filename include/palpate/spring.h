@@ -192,4 +192,19 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
                                        const std::filesystem::path& file, PredictorPolicy policy,
                                        std::string* note = nullptr, const Progress& progress = {});
 
+// What a scene's mass_spring tissue asks for: its network (from TissueDef::mesh — a tet file, or a
+// surface, filled with tetrahedra by tetrahedralize() when the topology is tet_edges — or from
+// TissueDef::patch, a flat sheet), the model options (dt = the scene's tick), and the predictor file
+// (TissueDef::spring.predictor resolved against the scene's directory, or "<output>/<name>.predictor").
+struct SpringTissueSetup {
+  SpringNetwork network;
+  SpringModelOptions options;
+  std::filesystem::path predictor;
+  PredictorPolicy policy = PredictorPolicy::load_or_compute;
+};
+Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index);
+
+// A network from a mesh file (tetrahedral formats by extension, else a surface).
+Result<SpringNetwork> spring_network_from_file(const MeshRef& mesh, const SpringNetworkOptions& options);
+
 }  // namespace palpate

@@ -369,6 +369,10 @@ void step_exact(const SpringModel& model, SpringState& s, const ToolState* tool)
 }  // namespace
 
 bool step(const SpringModel& model, SpringState& s, const ToolState* tool) noexcept {
+  // A device glitch (non-finite pose) must not reach the tissue: the tool is ignored this step.
+  if (tool && !(tool->tip.allFinite() && tool->velocity.allFinite() && tool->axis.allFinite() &&
+                std::isfinite(tool->radius)))
+    tool = nullptr;
   if (model.options.solver == SpringSolver::exact) {
     try {
       step_exact(model, s, tool);
