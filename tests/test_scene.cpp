@@ -591,7 +591,7 @@ TEST(SceneReference, DocContainsTheCurrentGeneratedReference) {
   ASSERT_NE(e, std::string::npos);
   ASSERT_LT(b, e);
   EXPECT_EQ(doc.substr(b + begin.size(), e - b - begin.size()), palpate::scene_reference_markdown())
-      << "docs/scene-format.md is out of date: paste `palpate::scene_reference_markdown()` between the markers";
+      << "docs/scene-format.md is out of date: run scripts/update-scene-reference";
 }
 
 TEST(SceneReference, DocExampleSceneParses) {
