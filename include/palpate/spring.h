@@ -26,7 +26,8 @@ enum class SpringTopology {
 // How the implicit backward-Euler step is solved.
 enum class SpringSolver {
   desbrun,  // precomputed dense inverse of M + hD + h²K_const, plus the angular-momentum correction
-  sparse,   // precomputed sparse LDLᵀ of the same matrix (AMD ordering), solved per tick
+  sparse,   // precomputed sparse LDLᵀ of the same matrix (nested dissection or AMD, whichever
+            // fills less), solved per tick with supernodes
   exact,    // Newton on the full non-linear backward Euler, re-assembled each step (reference)
 };
 
@@ -90,6 +91,11 @@ struct SpringModelOptions {
   double newton_tolerance = 1e-10;             // exact solver: stop when |Δv| ≤ tol · (1 + |v|), m/s
   double max_speed = 50.0;                     // m/s; faster means blow-up: the state is reset
   size_t dense_limit = 4000;                   // most vertices the dense predictor accepts
+  // The per-tick predictor (dense A⁻¹ or the supernodal factor) kept in float, read into double
+  // sums: half the memory traffic of the solve. Δv then carries a relative error of about 1e-6
+  // (test SpringSolve.SinglePrecisionErrorIsBounded), so momentum is conserved to that level and
+  // not to round-off. Predictor files still hold doubles; this is not part of their parameters.
+  bool single_precision = false;
 };
 
 // The precomputed predictor: A = M + h(γI + C_L) + h²K_L over the n vertices, where K_L and C_L are
@@ -108,11 +114,35 @@ struct SpringPredictor {
   bool empty() const { return inverse.empty() && value.empty() && inv_diag.empty(); }
 };
 
+// The per-tick form of a sparse predictor's factor L (unit lower triangular, permuted), derived
+// from SpringPredictor when the model is built and never stored in files. Consecutive columns with
+// the same row structure below a dense triangle form a supernode (Liu, Ng & Peyton 1993), kept as
+// one dense block, so the triangular solves stream contiguous values with one row index per block
+// row instead of one per entry. S supernodes.
+struct SpringSupernodes {
+  std::vector<int> first_column;  // (S + 1) supernode k holds columns [first_column[k], first_column[k + 1])
+  std::vector<int> row_start;     // (S + 1) its rows below the block: rows[row_start[k] .. row_start[k + 1])
+  std::vector<int> rows;          // permuted row indices below each supernode, ascending
+  std::vector<size_t> value_start;  // (S + 1) its values, column by column: column i of a block of
+                                    // width w holds its w − 1 − i entries in the block's triangle,
+                                    // then its r entries in the rows below (zeros where L has none)
+  std::vector<double> values;     // L's entries in that layout
+  std::vector<float> values_single;  // the same in float instead (SpringModelOptions::single_precision)
+  int max_width = 0;              // widest supernode
+  int max_height = 0;             // tallest supernode, width + rows below (sizes the solve's scratch)
+  bool empty() const { return first_column.empty(); }
+};
+
 // The constant part of a simulated organ, shared read-only by threads.
 struct SpringModel {
   SpringNetwork network;
   SpringModelOptions options;
   SpringPredictor predictor;
+  SpringSupernodes supernodes;          // sparse: the factor as the step uses it (built from predictor)
+  std::vector<float> inverse_single;    // desbrun with single_precision: (n x n) row-major A⁻¹ in float
+  double uniform_stiffness = 0;         // N/m when every spring has this stiffness (else 0): K_L v in O(n)
+  bool uniform_damping = false;         // every spring has the same damping (the all-pairs kernel reads
+                                        // no per-spring stiffness or damping when both are uniform)
   std::vector<std::uint8_t> anchored;   // (n) 1 for a fixed vertex
   std::vector<double> max_contact_stiffness;  // (n) N/m, (m_i + hγ)/h²: the stiffest explicit penalty
                                               // on vertex i that stays stable, since A⁻¹ ≤ (M + hγ)⁻¹
@@ -142,7 +172,8 @@ struct SpringState {
   double time = 0;  // s
   // Scratch, (n x 3) each.
   RowMat3d force, rhs, dv, work;
-  std::vector<double> soa;  // (3n) positions as x…, y…, z… for the all-pairs kernel
+  std::vector<double> soa;  // all-pairs kernel: (10n) structure-of-arrays copies; sparse solve:
+                            // (3n + 3·max_width) the permuted right-hand side as x…, y…, z…
   // Grasping: vertices attached to the tool and their offsets from the tip when grabbed.
   static constexpr int kMaxGrasped = 16;
   std::array<int, kMaxGrasped> grasped{};

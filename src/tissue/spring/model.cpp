@@ -7,6 +7,9 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
+#include "tissue/spring/ordering.h"
+#include "tissue/spring/solve.h"
+
 #include <algorithm>
 #include <string>
 
@@ -45,6 +48,34 @@ std::vector<Eigen::Triplet<double>> predictor_triplets(const SpringNetwork& net,
   return t;
 }
 
+// The predictor's fields from an Eigen factor of P A Pᵀ: L's strictly-lower entries by column,
+// 1/D, and perm (the new index of each vertex).
+Status take_factor(const Eigen::SparseMatrix<double>& L, const Eigen::VectorXd& D, std::vector<int> perm,
+                   SpringPredictor& p) {
+  const int n = static_cast<int>(D.size());
+  p.perm = std::move(perm);
+  p.col_start.assign(static_cast<size_t>(n) + 1, 0);
+  p.row.clear();
+  p.value.clear();
+  p.row.reserve(static_cast<size_t>(L.nonZeros()));
+  p.value.reserve(static_cast<size_t>(L.nonZeros()));
+  for (int c = 0; c < n; ++c) {
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L, c); it; ++it)
+      if (it.row() > c) {
+        p.row.push_back(static_cast<int>(it.row()));
+        p.value.push_back(it.value());
+      }
+    p.col_start[static_cast<size_t>(c) + 1] = static_cast<int>(p.row.size());
+  }
+  p.inv_diag.resize(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const double d = D[i];
+    if (!(d > 0)) return Error{"the predictor matrix is not positive definite (pivot " + std::to_string(i) + ")"};
+    p.inv_diag[static_cast<size_t>(i)] = 1.0 / d;
+  }
+  return {};
+}
+
 bool is_all_pairs(const SpringNetwork& net) {
   const size_t n = net.size();
   if (net.springs.size() != n * (n - 1) / 2) return false;
@@ -66,6 +97,11 @@ Status check_options(const SpringModelOptions& o) {
 
 Result<SpringPredictor> build_predictor(const SpringNetwork& net, const SpringModelOptions& o,
                                         const Progress& progress) {
+  return spring::build_predictor(net, o, spring::SparseOrdering::fewest_nonzeros, progress);
+}
+
+Result<SpringPredictor> spring::build_predictor(const SpringNetwork& net, const SpringModelOptions& o,
+                                                SparseOrdering sparse_ordering, const Progress& progress) {
   if (Status st = validate(net, "spring network"); !st) return st.error();
   if (Status st = check_options(o); !st) return st.error();
   SpringPredictor p;
@@ -95,31 +131,46 @@ Result<SpringPredictor> build_predictor(const SpringNetwork& net, const SpringMo
     }
     return p;
   }
-  // Sparse: LDLᵀ of P A Pᵀ with Eigen's approximate minimum degree ordering; factorised once.
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
+  // Sparse: LDLᵀ of P A Pᵀ, factorised once, with the ordering that fills less: METIS nested
+  // dissection (what 3-D meshes want) or Eigen's approximate minimum degree (better on small or
+  // thin graphs, and the fallback if METIS fails). docs/benchmarks/spring.md compares nnz(L).
   if (progress) progress(0.05);
-  ldlt.compute(A);
-  if (ldlt.info() != Eigen::Success) return Error{"the predictor matrix could not be factorised"};
-  const auto& L = ldlt.matrixL().nestedExpression();
-  p.perm.resize(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i) p.perm[static_cast<size_t>(i)] = ldlt.permutationP().indices()[i];
-  p.col_start.assign(static_cast<size_t>(n) + 1, 0);
-  p.row.reserve(static_cast<size_t>(L.nonZeros()));
-  p.value.reserve(static_cast<size_t>(L.nonZeros()));
-  for (int c = 0; c < n; ++c) {
-    for (Eigen::SparseMatrix<double>::InnerIterator it(L, c); it; ++it)
-      if (it.row() > c) {
-        p.row.push_back(static_cast<int>(it.row()));
-        p.value.push_back(it.value());
-      }
-    p.col_start[static_cast<size_t>(c) + 1] = static_cast<int>(p.row.size());
+  const SparseOrdering ordering = sparse_ordering;
+  SpringPredictor best;
+  if (ordering != SparseOrdering::nested_dissection) {
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
+    ldlt.compute(A);
+    if (ldlt.info() != Eigen::Success) return Error{"the predictor matrix could not be factorised"};
+    std::vector<int> perm(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i) perm[static_cast<size_t>(i)] = ldlt.permutationP().indices()[i];
+    if (Status st = take_factor(ldlt.matrixL().nestedExpression(), ldlt.vectorD(), std::move(perm), best); !st)
+      return st.error();
   }
-  p.inv_diag.resize(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i) {
-    const double d = ldlt.vectorD()[i];
-    if (!(d > 0)) return Error{"the predictor matrix is not positive definite (pivot " + std::to_string(i) + ")"};
-    p.inv_diag[static_cast<size_t>(i)] = 1.0 / d;
+  if (progress) progress(0.5);
+  if (ordering != SparseOrdering::amd) {
+    std::vector<int> nd = spring::nested_dissection(n, net.springs);
+    if (!nd.empty()) {
+      std::vector<Eigen::Triplet<double>> pt;
+      pt.reserve(triplets.size());
+      for (const auto& t : triplets)
+        pt.emplace_back(nd[static_cast<size_t>(t.row())], nd[static_cast<size_t>(t.col())], t.value());
+      Eigen::SparseMatrix<double> PA(n, n);
+      PA.setFromTriplets(pt.begin(), pt.end());
+      Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt;
+      ldlt.compute(PA);
+      if (ldlt.info() != Eigen::Success) return Error{"the predictor matrix could not be factorised"};
+      SpringPredictor q;
+      if (Status st = take_factor(ldlt.matrixL().nestedExpression(), ldlt.vectorD(), std::move(nd), q); !st)
+        return st.error();
+      if (best.value.empty() && best.inv_diag.empty()) best = std::move(q);
+      else if (q.value.size() < best.value.size()) best = std::move(q);
+    } else if (ordering == SparseOrdering::nested_dissection) {
+      return Error{"METIS could not order the predictor matrix"};
+    }
   }
+  best.kind = p.kind;
+  best.n = p.n;
+  p = std::move(best);
   if (progress) progress(1.0);
   return p;
 }
@@ -135,6 +186,16 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
   m.network = std::move(network);
   m.options = options;
   m.predictor = std::move(predictor);
+  m.supernodes = spring::make_supernodes(m.predictor, options.single_precision);
+  if (options.single_precision && m.predictor.kind == SpringSolver::desbrun)
+    m.inverse_single.assign(m.predictor.inverse.begin(), m.predictor.inverse.end());
+  if (!m.network.stiffness.empty() &&
+      std::all_of(m.network.stiffness.begin(), m.network.stiffness.end(),
+                  [&](double k) { return k == m.network.stiffness.front(); }))
+    m.uniform_stiffness = m.network.stiffness.front();
+  m.uniform_damping = !m.network.damping.empty() &&
+                      std::all_of(m.network.damping.begin(), m.network.damping.end(),
+                                  [&](double c) { return c == m.network.damping.front(); });
   m.anchored = anchored_flags(m.network);
   const size_t n = m.network.size();
   const double h = options.dt;
@@ -172,7 +233,10 @@ SpringState make_state(const SpringModel& model) {
   s.rhs = RowMat3d::Zero(n, 3);
   s.dv = RowMat3d::Zero(n, 3);
   s.work = RowMat3d::Zero(n, 3);
-  s.soa.assign(model.all_pairs ? static_cast<size_t>(n) * 10 : 0, 0.0);
+  size_t soa = model.all_pairs ? static_cast<size_t>(n) * 10 : 0;
+  if (model.predictor.kind == SpringSolver::desbrun) soa = std::max(soa, static_cast<size_t>(n) * 3);
+  if (!model.supernodes.empty()) soa = std::max(soa, spring::supernodal_scratch(model.predictor, model.supernodes));
+  s.soa.assign(soa, 0.0);
   return s;
 }
 

@@ -3,12 +3,15 @@
 // and the exact backward-Euler reference (Newton).
 #include <palpate/spring.h>
 
+#include "tissue/spring/solve.h"
+
 #include <Eigen/SparseCholesky>
 
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace palpate {
@@ -35,10 +38,86 @@ void add_spring_forces(const SpringNetwork& net, const RowMat3d& x, const RowMat
   }
 }
 
-// The same for every pair (the seed paper's topology), on structure-of-arrays copies so that the
-// inner loop over j > i is contiguous and vectorised by Eigen. soa is (10n): x, y, z, vx, vy, vz,
-// fx, fy, fz and g, each n long.
-void add_all_pair_forces(const SpringNetwork& net, const RowMat3d& x, const RowMat3d& v, RowMat3d& f,
+// One row of the all-pairs kernel: the springs (i, j), j = i + 1 … n − 1, whose rest lengths,
+// stiffnesses and dampings are L, K, C (m = n − 1 − i each; K, C null when uniform: k, c).
+// g_j = [k (l − L) l + c (Δv·d)] / l² (coincident vertices, l = 0, give g = 0 through the max);
+// vertex j loses g_j d_j, vertex i gains Σ g_j d_j = Σ g_j x_j − x_i Σ g_j (no reduction in the
+// vectorised loop). p is the structure-of-arrays block, G (n) scratch.
+template <bool Uniform>
+__attribute__((always_inline)) inline void all_pairs_row(int n, int i, const double* L, const double* K,
+                                                         const double* C, double k, double c, double* p) noexcept {
+  const size_t N = static_cast<size_t>(n);
+  const double* X = p;
+  const double* Y = p + N;
+  const double* Z = p + 2 * N;
+  const double* VX = p + 3 * N;
+  const double* VY = p + 4 * N;
+  const double* VZ = p + 5 * N;
+  double* FX = p + 6 * N;
+  double* FY = p + 7 * N;
+  double* FZ = p + 8 * N;
+  double* G = p + 9 * N;
+  const double xi = X[i], yi = Y[i], zi = Z[i], vxi = VX[i], vyi = VY[i], vzi = VZ[i];
+  const int m = n - 1 - i;
+  const int o = i + 1;
+  for (int j = 0; j < m; ++j) {
+    const double dx = X[o + j] - xi, dy = Y[o + j] - yi, dz = Z[o + j] - zi;
+    const double l2 = dx * dx + dy * dy + dz * dz;
+    const double l = std::sqrt(l2);
+    const double kj = Uniform ? k : K[j], cj = Uniform ? c : C[j];
+    const double dvd = (VX[o + j] - vxi) * dx + (VY[o + j] - vyi) * dy + (VZ[o + j] - vzi) * dz;
+    const double g = (kj * (l - L[j]) * l + cj * dvd) / std::max(l2, 1e-300);
+    G[j] = g;
+    FX[o + j] -= g * dx;
+    FY[o + j] -= g * dy;
+    FZ[o + j] -= g * dz;
+  }
+  // The sums in four lanes (vector registers; no d4 crosses a call).
+  typedef double d4 __attribute__((vector_size(32)));
+  d4 ax = {0, 0, 0, 0}, ay = ax, az = ax, ag = ax;
+  int j = 0;
+  for (; j + 4 <= m; j += 4) {
+    d4 gv, xv, yv, zv;
+    std::memcpy(&gv, G + j, sizeof gv);
+    std::memcpy(&xv, X + o + j, sizeof xv);
+    std::memcpy(&yv, Y + o + j, sizeof yv);
+    std::memcpy(&zv, Z + o + j, sizeof zv);
+    ax += gv * xv;
+    ay += gv * yv;
+    az += gv * zv;
+    ag += gv;
+  }
+  double sx = (ax[0] + ax[1]) + (ax[2] + ax[3]), sy = (ay[0] + ay[1]) + (ay[2] + ay[3]);
+  double sz = (az[0] + az[1]) + (az[2] + az[3]), sg = (ag[0] + ag[1]) + (ag[2] + ag[3]);
+  for (; j < m; ++j) {
+    sx += G[j] * X[o + j];
+    sy += G[j] * Y[o + j];
+    sz += G[j] * Z[o + j];
+    sg += G[j];
+  }
+  FX[i] += sx - xi * sg;
+  FY[i] += sy - yi * sg;
+  FZ[i] += sz - zi * sg;
+}
+
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+void all_pairs_rows(const SpringNetwork& net, bool uniform, double* p) noexcept {
+  const int n = static_cast<int>(net.size());
+  size_t e0 = 0;
+  for (int i = 0; i + 1 < n; ++i) {
+    if (uniform)
+      all_pairs_row<true>(n, i, net.rest_length.data() + e0, nullptr, nullptr, net.stiffness[0], net.damping[0], p);
+    else
+      all_pairs_row<false>(n, i, net.rest_length.data() + e0, net.stiffness.data() + e0, net.damping.data() + e0, 0, 0,
+                           p);
+    e0 += static_cast<size_t>(n - 1 - i);
+  }
+}
+
+// The same forces for every pair (the seed paper's topology), on structure-of-arrays copies so the
+// inner loop over j > i is contiguous and vectorised. soa is (10n): x, y, z, vx, vy, vz, fx, fy, fz
+// and g, each n long. uniform: every spring has the stiffness and damping of the first.
+void add_all_pair_forces(const SpringNetwork& net, bool uniform, const RowMat3d& x, const RowMat3d& v, RowMat3d& f,
                          std::vector<double>& soa) noexcept {
   const Eigen::Index n = x.rows();
   using Arr = Eigen::Map<Eigen::ArrayXd>;
@@ -48,28 +127,7 @@ void add_all_pair_forces(const SpringNetwork& net, const RowMat3d& x, const RowM
   X = x.col(0).array(); Y = x.col(1).array(); Z = x.col(2).array();
   VX = v.col(0).array(); VY = v.col(1).array(); VZ = v.col(2).array();
   FX.setZero(); FY.setZero(); FZ.setZero();
-  Eigen::Index e0 = 0;
-  for (Eigen::Index i = 0; i + 1 < n; ++i) {
-    const Eigen::Index m = n - 1 - i;
-    const auto dx = X.segment(i + 1, m) - X[i];
-    const auto dy = Y.segment(i + 1, m) - Y[i];
-    const auto dz = Z.segment(i + 1, m) - Z[i];
-    const Eigen::Map<const Eigen::ArrayXd> L(net.rest_length.data() + e0, m), K(net.stiffness.data() + e0, m),
-        C(net.damping.data() + e0, m);
-    Arr G(p + 9 * n, m);
-    // g = [k (l − L) l + c (Δv·d)] / l²; coincident vertices (l = 0) get g = 0 through the max.
-    G = (K * ((dx * dx + dy * dy + dz * dz).sqrt() - L) * (dx * dx + dy * dy + dz * dz).sqrt() +
-         C * ((VX.segment(i + 1, m) - VX[i]) * dx + (VY.segment(i + 1, m) - VY[i]) * dy +
-              (VZ.segment(i + 1, m) - VZ[i]) * dz)) /
-        (dx * dx + dy * dy + dz * dz).max(1e-300);
-    FX[i] += (G * dx).sum();
-    FY[i] += (G * dy).sum();
-    FZ[i] += (G * dz).sum();
-    FX.segment(i + 1, m) -= G * dx;
-    FY.segment(i + 1, m) -= G * dy;
-    FZ.segment(i + 1, m) -= G * dz;
-    e0 += m;
-  }
+  all_pairs_rows(net, uniform, p);
   f.col(0).array() += FX; f.col(1).array() += FY; f.col(2).array() += FZ;
 }
 
@@ -152,54 +210,6 @@ Vec3 external_forces(const SpringModel& model, SpringState& s, const ToolState* 
   return tool ? add_tool_forces(model, s, *tool, f) : Vec3::Zero();
 }
 
-// Δv = A⁻¹ b with the dense inverse: three dot products per row of A⁻¹ (b is (n x 3)).
-void apply_dense(const SpringPredictor& p, const RowMat3d& b, RowMat3d& dv, RowMat3d& work) noexcept {
-  const Eigen::Index n = p.n;
-  // Columns of b contiguous for the dot products.
-  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::ColMajor>> bc(work.data(), n, 3);
-  bc = b;
-  const Eigen::Map<const RowMatXd> W(p.inverse.data(), n, n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const auto w = W.row(i);
-    dv(i, 0) = w.dot(bc.col(0).transpose());
-    dv(i, 1) = w.dot(bc.col(1).transpose());
-    dv(i, 2) = w.dot(bc.col(2).transpose());
-  }
-}
-
-// Δv = A⁻¹ b with A = Pᵀ L D Lᵀ P: permute, forward substitution, scale, back substitution,
-// permute back. The three coordinates are solved together (interleaved), sharing L.
-void apply_sparse(const SpringPredictor& p, const RowMat3d& b, RowMat3d& dv, RowMat3d& z) noexcept {
-  const int n = p.n;
-  for (int i = 0; i < n; ++i) z.row(p.perm[static_cast<size_t>(i)]) = b.row(i);
-  double* zd = z.data();
-  const int* cs = p.col_start.data();
-  const int* rw = p.row.data();
-  const double* lv = p.value.data();
-  for (int c = 0; c < n; ++c) {
-    const double z0 = zd[3 * c], z1 = zd[3 * c + 1], z2 = zd[3 * c + 2];
-    for (int q = cs[c]; q < cs[c + 1]; ++q) {
-      double* t = zd + 3 * rw[q];
-      const double l = lv[q];
-      t[0] -= l * z0; t[1] -= l * z1; t[2] -= l * z2;
-    }
-  }
-  for (int c = 0; c < n; ++c) {
-    const double d = p.inv_diag[static_cast<size_t>(c)];
-    zd[3 * c] *= d; zd[3 * c + 1] *= d; zd[3 * c + 2] *= d;
-  }
-  for (int c = n - 1; c >= 0; --c) {
-    double a0 = zd[3 * c], a1 = zd[3 * c + 1], a2 = zd[3 * c + 2];
-    for (int q = cs[c]; q < cs[c + 1]; ++q) {
-      const double* t = zd + 3 * rw[q];
-      const double l = lv[q];
-      a0 -= l * t[0]; a1 -= l * t[1]; a2 -= l * t[2];
-    }
-    zd[3 * c] = a0; zd[3 * c + 1] = a1; zd[3 * c + 2] = a2;
-  }
-  for (int i = 0; i < n; ++i) dv.row(i) = z.row(p.perm[static_cast<size_t>(i)]);
-}
-
 // The post-step correction for the dropped non-linear part (DS99 §4.3): spring forces are
 // central, so they must not change the angular momentum; the predictor's transverse stiffness
 // (K_L ⊗ I3 instead of the true k uuᵀ) does. The spurious change
@@ -257,7 +267,9 @@ bool finite_and_slow(const SpringModel& model, const SpringState& s) noexcept {
 void all_forces(const SpringModel& model, SpringState& s, const ToolState* tool) noexcept {
   s.tool_force = external_forces(model, s, tool, s.work);
   s.force = s.work;
-  if (model.all_pairs) add_all_pair_forces(model.network, s.x, s.v, s.force, s.soa);
+  if (model.all_pairs) {
+    add_all_pair_forces(model.network, model.uniform_stiffness > 0 && model.uniform_damping, s.x, s.v, s.force, s.soa);
+  }
   else add_spring_forces(model.network, s.x, s.v, s.force);
   s.anchor_force = anchor_load(model, s.force);
 }
@@ -276,19 +288,28 @@ void step_predictor(const SpringModel& model, SpringState& s, const ToolState* t
   if (correct)
     for (Eigen::Index i = 0; i < n; ++i) ext_torque += s.x.row(i).transpose().cross(s.work.row(i).transpose());
   s.rhs = s.force - gamma * s.v;
-  for (size_t e = 0; e < net.springs.size(); ++e) {
-    const int i = net.springs[e][0], j = net.springs[e][1];
-    const double kh = h * net.stiffness[e];
-    for (int c = 0; c < 3; ++c) {
-      const double d = kh * (s.v(i, c) - s.v(j, c));
-      s.rhs(i, c) -= d;
-      s.rhs(j, c) += d;
+  if (model.all_pairs && model.uniform_stiffness > 0) {
+    // K_L v with one stiffness over every pair: (K_L v)_i = k (n v_i − Σ_j v_j).
+    const Eigen::RowVector3d sum = s.v.colwise().sum();
+    const double kh = h * model.uniform_stiffness;
+    for (Eigen::Index i = 0; i < n; ++i) s.rhs.row(i) -= kh * (static_cast<double>(n) * s.v.row(i) - sum);
+  } else {
+    for (size_t e = 0; e < net.springs.size(); ++e) {
+      const int i = net.springs[e][0], j = net.springs[e][1];
+      const double kh = h * net.stiffness[e];
+      for (int c = 0; c < 3; ++c) {
+        const double d = kh * (s.v(i, c) - s.v(j, c));
+        s.rhs(i, c) -= d;
+        s.rhs(j, c) += d;
+      }
     }
   }
   s.rhs *= h;
   for (int a : net.anchors) s.rhs.row(a).setZero();
-  if (model.predictor.kind == SpringSolver::desbrun) apply_dense(model.predictor, s.rhs, s.dv, s.work);
-  else apply_sparse(model.predictor, s.rhs, s.dv, s.work);
+  if (model.predictor.kind == SpringSolver::desbrun)
+    spring::solve_dense(model.predictor, model.inverse_single, s.rhs, s.dv, s.soa.data());
+  else if (model.supernodes.empty()) spring::solve_columns(model.predictor, s.rhs, s.dv, s.work);
+  else spring::solve_supernodal(model.predictor, model.supernodes, s.rhs, s.dv, s.soa.data());
   if (correct) correct_angular_momentum(model, s, ext_torque, s.dv);
   s.v += s.dv;
   for (int a : net.anchors) s.v.row(a).setZero();

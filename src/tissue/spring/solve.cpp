@@ -1,0 +1,353 @@
+// solve.cpp — the sparse predictor's per-tick triangular solves: supernodal (the step's) and
+// column-by-column (the reference), and the supernode partition of the factor.
+#include "tissue/spring/solve.h"
+
+#include <algorithm>
+#include <cstring>
+#include <iterator>
+
+namespace palpate::spring {
+
+namespace {
+
+// Four doubles: one AVX register in the avx2 clone, two SSE2 registers in the default one.
+typedef double d4 __attribute__((vector_size(32)));
+
+// (t0, t1, t2) = Σ_j a[j] (x[j], y[j], z[j]), j < w: one read of a for the three coordinates.
+// T is the stored value type (double, or float widened to double: accumulation is in double).
+template <typename T>
+__attribute__((always_inline)) inline void dot3(const T* a, const double* x, const double* y, const double* z, int w,
+                                                double& t0, double& t1, double& t2) noexcept {
+  // (No d4 crosses a function boundary: that would tie the ABI to AVX.)
+  d4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
+  int j = 0;
+  for (; j + 4 <= w; j += 4) {
+    const d4 v = {static_cast<double>(a[j]), static_cast<double>(a[j + 1]), static_cast<double>(a[j + 2]),
+                  static_cast<double>(a[j + 3])};
+    d4 vx, vy, vz;
+    std::memcpy(&vx, x + j, sizeof vx);
+    std::memcpy(&vy, y + j, sizeof vy);
+    std::memcpy(&vz, z + j, sizeof vz);
+    s0 += v * vx;
+    s1 += v * vy;
+    s2 += v * vz;
+  }
+  double r0 = (s0[0] + s0[1]) + (s0[2] + s0[3]);
+  double r1 = (s1[0] + s1[1]) + (s1[2] + s1[3]);
+  double r2 = (s2[0] + s2[1]) + (s2[2] + s2[3]);
+  for (; j < w; ++j) {
+    const double v = static_cast<double>(a[j]);
+    r0 += v * x[j];
+    r1 += v * y[j];
+    r2 += v * z[j];
+  }
+  t0 = r0; t1 = r1; t2 = r2;
+}
+
+// Blocks narrower than this are solved in place; wider ones are gathered first.
+constexpr size_t kGatherWidth = 4;
+
+// Offset of column i's values inside a block of width w with r rows below: columns are stored one
+// after the other, column i holding its w − 1 − i triangle entries and then its r block entries.
+inline size_t column_offset(size_t i, size_t w, size_t r) noexcept { return i * (w - 1 + r) - i * (i - 1) / 2; }
+
+// Forward substitution L y = b, then y ← D⁻¹ y, then back substitution Lᵀ x = y, in place on the
+// structure-of-arrays right-hand side (zx, zy, zz), (n) each. Each block's entries of z (its own
+// columns, then its rows below) are gathered into g (3 arrays of stride m = max block height), so
+// every column of the block is one contiguous axpy (forward) or dot (back) over g.
+template <typename T>
+__attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, const T* values, const double* inv_diag,
+                                                  double* zx, double* zy, double* zz, double* g, size_t m) noexcept {
+  const int S = static_cast<int>(sn.first_column.size()) - 1;
+  const int* fc = sn.first_column.data();
+  const int* rs = sn.row_start.data();
+  const int* rows = sn.rows.data();
+  const size_t* vs = sn.value_start.data();
+  double* __restrict gx = g;
+  double* __restrict gy = g + m;
+  double* __restrict gz = g + 2 * m;
+  for (int k = 0; k < S; ++k) {
+    const int f = fc[k];
+    const size_t w = static_cast<size_t>(fc[k + 1] - f), r = static_cast<size_t>(rs[k + 1] - rs[k]);
+    const int* R = rows + rs[k];
+    const T* V = values + vs[k];
+    if (w < kGatherWidth) {
+      // Narrow block: update z in place, column by column (gathering would not pay off).
+      for (size_t i = 0; i < w; ++i) {
+        const T* c = V + column_offset(i, w, r);
+        const int fi = f + static_cast<int>(i);
+        const double a0 = zx[fi], a1 = zy[fi], a2 = zz[fi];
+        const size_t t = w - 1 - i;
+        for (size_t j = 0; j < t; ++j) {
+          zx[fi + 1 + static_cast<int>(j)] -= c[j] * a0;
+          zy[fi + 1 + static_cast<int>(j)] -= c[j] * a1;
+          zz[fi + 1 + static_cast<int>(j)] -= c[j] * a2;
+        }
+        for (size_t q = 0; q < r; ++q) {
+          const int row = R[q];
+          zx[row] -= c[t + q] * a0; zy[row] -= c[t + q] * a1; zz[row] -= c[t + q] * a2;
+        }
+      }
+      continue;
+    }
+    for (size_t i = 0; i < w; ++i) {
+      gx[i] = zx[f + static_cast<int>(i)]; gy[i] = zy[f + static_cast<int>(i)]; gz[i] = zz[f + static_cast<int>(i)];
+    }
+    for (size_t q = 0; q < r; ++q) {
+      gx[w + q] = zx[R[q]]; gy[w + q] = zy[R[q]]; gz[w + q] = zz[R[q]];
+    }
+    const size_t h = w + r;
+    for (size_t i = 0; i < w; ++i) {
+      const T* __restrict c = V + column_offset(i, w, r);
+      const double a0 = gx[i], a1 = gy[i], a2 = gz[i];
+      const size_t len = h - i - 1;
+      double* __restrict tx = gx + i + 1;
+      double* __restrict ty = gy + i + 1;
+      double* __restrict tz = gz + i + 1;
+      for (size_t j = 0; j < len; ++j) {
+        tx[j] -= c[j] * a0; ty[j] -= c[j] * a1; tz[j] -= c[j] * a2;
+      }
+    }
+    for (size_t i = 0; i < w; ++i) {
+      zx[f + static_cast<int>(i)] = gx[i]; zy[f + static_cast<int>(i)] = gy[i]; zz[f + static_cast<int>(i)] = gz[i];
+    }
+    for (size_t q = 0; q < r; ++q) {
+      zx[R[q]] = gx[w + q]; zy[R[q]] = gy[w + q]; zz[R[q]] = gz[w + q];
+    }
+  }
+  const int n = fc[S];
+  for (int i = 0; i < n; ++i) {
+    zx[i] *= inv_diag[i]; zy[i] *= inv_diag[i]; zz[i] *= inv_diag[i];
+  }
+  for (int k = S - 1; k >= 0; --k) {
+    const int f = fc[k];
+    const size_t w = static_cast<size_t>(fc[k + 1] - f), r = static_cast<size_t>(rs[k + 1] - rs[k]);
+    const int* R = rows + rs[k];
+    const T* V = values + vs[k];
+    if (w < kGatherWidth) {
+      for (size_t i = w; i-- > 0;) {
+        const T* c = V + column_offset(i, w, r);
+        const int fi = f + static_cast<int>(i);
+        double a0 = zx[fi], a1 = zy[fi], a2 = zz[fi];
+        const size_t t = w - 1 - i;
+        for (size_t j = 0; j < t; ++j) {
+          const int row = fi + 1 + static_cast<int>(j);
+          a0 -= c[j] * zx[row]; a1 -= c[j] * zy[row]; a2 -= c[j] * zz[row];
+        }
+        for (size_t q = 0; q < r; ++q) {
+          const int row = R[q];
+          a0 -= c[t + q] * zx[row]; a1 -= c[t + q] * zy[row]; a2 -= c[t + q] * zz[row];
+        }
+        zx[fi] = a0; zy[fi] = a1; zz[fi] = a2;
+      }
+      continue;
+    }
+    for (size_t i = 0; i < w; ++i) {
+      gx[i] = zx[f + static_cast<int>(i)]; gy[i] = zy[f + static_cast<int>(i)]; gz[i] = zz[f + static_cast<int>(i)];
+    }
+    for (size_t q = 0; q < r; ++q) {
+      gx[w + q] = zx[R[q]]; gy[w + q] = zy[R[q]]; gz[w + q] = zz[R[q]];
+    }
+    const size_t h = w + r;
+    for (size_t i = w; i-- > 0;) {
+      double t0, t1, t2;
+      const size_t len = h - i - 1;
+      dot3(V + column_offset(i, w, r), gx + i + 1, gy + i + 1, gz + i + 1, static_cast<int>(len), t0, t1, t2);
+      gx[i] -= t0; gy[i] -= t1; gz[i] -= t2;
+    }
+    for (size_t i = 0; i < w; ++i) {
+      zx[f + static_cast<int>(i)] = gx[i]; zy[f + static_cast<int>(i)] = gy[i]; zz[f + static_cast<int>(i)] = gz[i];
+    }
+  }
+}
+
+// The sweeps compiled twice each: for AVX2 + FMA (x86-64-v3) and for any x86-64, chosen at load.
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+void sweeps_double(const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
+                   size_t m) noexcept {
+  sweeps(sn, sn.values.data(), inv_diag, zx, zy, zz, g, m);
+}
+
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
+                   size_t m) noexcept {
+  sweeps(sn, sn.values_single.data(), inv_diag, zx, zy, zz, g, m);
+}
+
+template <typename T>
+__attribute__((always_inline)) inline void dense_rows(const T* W, int n, const double* bx, const double* by,
+                                                      const double* bz, double* x) noexcept {
+  for (int i = 0; i < n; ++i) {
+    double t0, t1, t2;
+    dot3(W + static_cast<size_t>(i) * static_cast<size_t>(n), bx, by, bz, n, t0, t1, t2);
+    x[3 * i] = t0; x[3 * i + 1] = t1; x[3 * i + 2] = t2;
+  }
+}
+
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+void dense_double(const double* W, int n, const double* bx, const double* by, const double* bz, double* x) noexcept {
+  dense_rows(W, n, bx, by, bz, x);
+}
+
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+void dense_single(const float* W, int n, const double* bx, const double* by, const double* bz, double* x) noexcept {
+  dense_rows(W, n, bx, by, bz, x);
+}
+
+}  // namespace
+
+SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double max_padding, int max_width) {
+  SpringSupernodes sn;
+  const int n = p.n;
+  if (p.kind != SpringSolver::sparse || n <= 0 || p.col_start.size() != static_cast<size_t>(n) + 1) return sn;
+  const int* cs = p.col_start.data();
+  const int* rw = p.row.data();
+  // Greedy relaxed amalgamation: any run of consecutive columns can be one dense block (entries
+  // missing from L are stored as zeros), so grow a block while its stored size stays within
+  // (1 + max_padding) of the entries it holds. U is the block's row set below its last column.
+  std::vector<int> U, merged;
+  std::vector<int> block_rows;  // rows[] for the block being grown
+  sn.first_column.push_back(0);
+  int f = 0;
+  size_t held = 0;
+  U.clear();
+  auto close_block = [&](int e) {
+    sn.first_column.push_back(e);
+    sn.rows.insert(sn.rows.end(), U.begin(), U.end());
+    sn.row_start.push_back(static_cast<int>(sn.rows.size()));
+  };
+  sn.row_start.push_back(0);
+  for (int c = 0; c < n; ++c) {
+    // Rows of column c, sorted (Eigen's are, but do not rely on it).
+    std::vector<int> rc(rw + cs[c], rw + cs[c + 1]);
+    std::sort(rc.begin(), rc.end());
+    const size_t count = rc.size();
+    if (c > f) {
+      // Try adding column c to the block [f, c): U loses c (it becomes a triangle row), gains rc.
+      merged.clear();
+      std::set_union(U.begin(), U.end(), rc.begin(), rc.end(), std::back_inserter(merged));
+      if (!merged.empty() && merged.front() == c) merged.erase(merged.begin());
+      const size_t w = static_cast<size_t>(c - f + 1);
+      const size_t stored = w * (w - 1) / 2 + merged.size() * w;
+      if (static_cast<int>(w) <= max_width &&
+          static_cast<double>(stored) <= (1.0 + max_padding) * static_cast<double>(held + count) + 0.0) {
+        U.swap(merged);
+        held += count;
+        continue;
+      }
+      close_block(c);
+      f = c;
+    }
+    U = rc;
+    held = count;
+  }
+  close_block(n);
+  const size_t S = sn.first_column.size() - 1;
+  sn.value_start.assign(S + 1, 0);
+  for (size_t k = 0; k < S; ++k) {
+    const size_t w = static_cast<size_t>(sn.first_column[k + 1] - sn.first_column[k]);
+    const size_t r = static_cast<size_t>(sn.row_start[k + 1] - sn.row_start[k]);
+    sn.max_width = std::max(sn.max_width, static_cast<int>(w));
+    sn.max_height = std::max(sn.max_height, static_cast<int>(w + r));
+    sn.value_start[k + 1] = sn.value_start[k] + w * (w - 1) / 2 + r * w;
+  }
+  sn.values.assign(sn.value_start[S], 0.0);
+  std::vector<int> position(static_cast<size_t>(n), -1);  // block row of each row index
+  for (size_t k = 0; k < S; ++k) {
+    const int f0 = sn.first_column[k], e = sn.first_column[k + 1];
+    const size_t w = static_cast<size_t>(e - f0);
+    for (int q = sn.row_start[k]; q < sn.row_start[k + 1]; ++q) position[static_cast<size_t>(sn.rows[static_cast<size_t>(q)])] = q - sn.row_start[k];
+    const size_t rcount = static_cast<size_t>(sn.row_start[k + 1] - sn.row_start[k]);
+    double* V = sn.values.data() + sn.value_start[k];
+    for (int c = f0; c < e; ++c) {
+      const size_t i = static_cast<size_t>(c - f0);
+      // Column i covers block rows i + 1 … w − 1 and then the rows below, in that order.
+      double* col = V + column_offset(i, w, rcount) - (i + 1);
+      for (int q = cs[c]; q < cs[c + 1]; ++q) {
+        const int r = rw[q];
+        const size_t at = r < e ? static_cast<size_t>(r - f0) : w + static_cast<size_t>(position[static_cast<size_t>(r)]);
+        col[at] = p.value[static_cast<size_t>(q)];
+      }
+    }
+  }
+  if (single) {
+    sn.values_single.assign(sn.values.begin(), sn.values.end());
+    std::vector<double>().swap(sn.values);
+  }
+  return sn;
+}
+
+size_t supernodal_scratch(const SpringPredictor& p, const SpringSupernodes& sn) {
+  return 3 * static_cast<size_t>(p.n) + 3 * static_cast<size_t>(sn.max_height);
+}
+
+void solve_supernodal(const SpringPredictor& p, const SpringSupernodes& sn, const RowMat3d& b, RowMat3d& x,
+                      double* scratch) noexcept {
+  const int n = p.n;
+  double* zx = scratch;
+  double* zy = scratch + n;
+  double* zz = scratch + 2 * static_cast<size_t>(n);
+  const int* perm = p.perm.data();
+  for (int i = 0; i < n; ++i) {
+    const int q = perm[i];
+    zx[q] = b(i, 0); zy[q] = b(i, 1); zz[q] = b(i, 2);
+  }
+  double* g = scratch + 3 * static_cast<size_t>(n);
+  const size_t m = static_cast<size_t>(sn.max_height);
+  if (sn.values_single.empty()) sweeps_double(sn, p.inv_diag.data(), zx, zy, zz, g, m);
+  else sweeps_single(sn, p.inv_diag.data(), zx, zy, zz, g, m);
+  for (int i = 0; i < n; ++i) {
+    const int q = perm[i];
+    x(i, 0) = zx[q]; x(i, 1) = zy[q]; x(i, 2) = zz[q];
+  }
+}
+
+void solve_columns(const SpringPredictor& p, const RowMat3d& b, RowMat3d& dv, RowMat3d& z) noexcept {
+  const int n = p.n;
+  for (int i = 0; i < n; ++i) z.row(p.perm[static_cast<size_t>(i)]) = b.row(i);
+  double* zd = z.data();
+  const int* cs = p.col_start.data();
+  const int* rw = p.row.data();
+  const double* lv = p.value.data();
+  for (int c = 0; c < n; ++c) {
+    const double z0 = zd[3 * c], z1 = zd[3 * c + 1], z2 = zd[3 * c + 2];
+    for (int q = cs[c]; q < cs[c + 1]; ++q) {
+      double* t = zd + 3 * rw[q];
+      const double l = lv[q];
+      t[0] -= l * z0; t[1] -= l * z1; t[2] -= l * z2;
+    }
+  }
+  for (int c = 0; c < n; ++c) {
+    const double d = p.inv_diag[static_cast<size_t>(c)];
+    zd[3 * c] *= d; zd[3 * c + 1] *= d; zd[3 * c + 2] *= d;
+  }
+  for (int c = n - 1; c >= 0; --c) {
+    double a0 = zd[3 * c], a1 = zd[3 * c + 1], a2 = zd[3 * c + 2];
+    for (int q = cs[c]; q < cs[c + 1]; ++q) {
+      const double* t = zd + 3 * rw[q];
+      const double l = lv[q];
+      a0 -= l * t[0]; a1 -= l * t[1]; a2 -= l * t[2];
+    }
+    zd[3 * c] = a0; zd[3 * c + 1] = a1; zd[3 * c + 2] = a2;
+  }
+  for (int i = 0; i < n; ++i) dv.row(i) = z.row(p.perm[static_cast<size_t>(i)]);
+}
+
+}  // namespace palpate::spring
+
+namespace palpate::spring {
+
+void solve_dense(const SpringPredictor& p, const std::vector<float>& inverse_single, const RowMat3d& b, RowMat3d& x,
+                 double* scratch) noexcept {
+  const int n = p.n;
+  double* bx = scratch;
+  double* by = scratch + n;
+  double* bz = scratch + 2 * static_cast<size_t>(n);
+  for (int i = 0; i < n; ++i) {
+    bx[i] = b(i, 0); by[i] = b(i, 1); bz[i] = b(i, 2);
+  }
+  if (inverse_single.empty()) dense_double(p.inverse.data(), n, bx, by, bz, x.data());
+  else dense_single(inverse_single.data(), n, bx, by, bz, x.data());
+}
+
+}  // namespace palpate::spring

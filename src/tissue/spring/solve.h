@@ -1,0 +1,48 @@
+// solve.h — the sparse predictor's per-tick solve: the supernodal form of its LDLᵀ factor and the
+// permuted triangular solves over it (internal; used by model.cpp, step.cpp and the tests).
+#pragma once
+
+#include <palpate/spring.h>
+
+namespace palpate::spring {
+
+// Which fill-reducing ordering the sparse predictor's factor uses.
+enum class SparseOrdering {
+  fewest_nonzeros,    // both below, keep the sparser factor (what build_predictor does)
+  amd,                // Eigen's approximate minimum degree only (palpate's first ordering)
+  nested_dissection,  // METIS only
+};
+
+// build_predictor with a chosen ordering (for benchmarks and tests; desbrun and exact ignore it).
+Result<SpringPredictor> build_predictor(const SpringNetwork& network, const SpringModelOptions& options,
+                                        SparseOrdering ordering, const Progress& progress = {});
+
+// Group the columns of the predictor's factor (kind sparse) into supernodes: runs of consecutive
+// columns stored as one dense block (a strictly lower triangle and the rows below), grown greedily
+// while the block stores at most (1 + max_padding) times the entries of L it holds (the rest are
+// explicit zeros: relaxed amalgamation, Ashcraft & Grimes 1989) and is at most max_width wide.
+// max_padding = 0 gives exact (fundamental-like) supernodes.
+// single: keep the values in float (values_single) instead of double.
+SpringSupernodes make_supernodes(const SpringPredictor& predictor, bool single = false, double max_padding = 0.5,
+                                 int max_width = 128);
+
+// Doubles of scratch solve_supernodal needs: (3n + 3·max_height).
+size_t supernodal_scratch(const SpringPredictor& predictor, const SpringSupernodes& supernodes);
+
+// x = A⁻¹ b for b, x (n x 3) with A = Pᵀ L D Lᵀ P: permute into structure-of-arrays, forward
+// substitution by supernodes (dense triangle, then the block below), scale by D⁻¹, back
+// substitution, permute back. The three coordinates share every value of L read; float values are
+// widened and accumulated in double. scratch holds
+// supernodal_scratch() doubles. b and x may not alias.
+void solve_supernodal(const SpringPredictor& predictor, const SpringSupernodes& supernodes, const RowMat3d& b,
+                      RowMat3d& x, double* scratch) noexcept;
+
+// The reference: the same solve column by column over the CSC factor (one index per entry).
+void solve_columns(const SpringPredictor& predictor, const RowMat3d& b, RowMat3d& x, RowMat3d& scratch) noexcept;
+
+// x = A⁻¹ b with the dense inverse (desbrun): one pass over A⁻¹'s rows for the three coordinates,
+// from inverse_single (float, widened) when it is not empty. scratch holds 3n doubles.
+void solve_dense(const SpringPredictor& predictor, const std::vector<float>& inverse_single, const RowMat3d& b,
+                 RowMat3d& x, double* scratch) noexcept;
+
+}  // namespace palpate::spring
