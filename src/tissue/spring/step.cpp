@@ -38,6 +38,33 @@ void add_spring_forces(const SpringNetwork& net, const RowMat3d& x, const RowMat
   }
 }
 
+// The predictor's spring pass: the forces of add_spring_forces into f, and in the same pass over
+// the springs the right-hand side's −h K_L v term into r: r_i −= h k_e (v_i − v_j), r_j += the same.
+// x, v, f, r are (n x 3).
+void add_spring_forces_and_stiffness_term(const SpringNetwork& net, double h, const RowMat3d& x, const RowMat3d& v,
+                                          RowMat3d& f, RowMat3d& r) noexcept {
+  const size_t s = net.springs.size();
+  const double* xd = x.data();
+  const double* vd = v.data();
+  double* fd = f.data();
+  double* rd = r.data();
+  for (size_t e = 0; e < s; ++e) {
+    const size_t i = 3 * static_cast<size_t>(net.springs[e][0]), j = 3 * static_cast<size_t>(net.springs[e][1]);
+    const double dx = xd[j] - xd[i], dy = xd[j + 1] - xd[i + 1], dz = xd[j + 2] - xd[i + 2];
+    const double wx = vd[j] - vd[i], wy = vd[j + 1] - vd[i + 1], wz = vd[j + 2] - vd[i + 2];
+    const double kh = h * net.stiffness[e];
+    rd[i] += kh * wx; rd[i + 1] += kh * wy; rd[i + 2] += kh * wz;
+    rd[j] -= kh * wx; rd[j + 1] -= kh * wy; rd[j + 2] -= kh * wz;
+    const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
+    if (!(l > 0)) continue;
+    const double inv_l = 1.0 / l;
+    const double dvu = (wx * dx + wy * dy + wz * dz) * inv_l;
+    const double g = (net.stiffness[e] * (l - net.rest_length[e]) + net.damping[e] * dvu) * inv_l;
+    fd[i] += g * dx; fd[i + 1] += g * dy; fd[i + 2] += g * dz;
+    fd[j] -= g * dx; fd[j + 1] -= g * dy; fd[j + 2] -= g * dz;
+  }
+}
+
 // One row of the all-pairs kernel: the springs (i, j), j = i + 1 … n − 1, whose rest lengths,
 // stiffnesses and dampings are L, K, C (m = n − 1 − i each; K, C null when uniform: k, c).
 // g_j = [k (l − L) l + c (Δv·d)] / l² (coincident vertices, l = 0, give g = 0 through the max);
@@ -264,9 +291,17 @@ bool finite_and_slow(const SpringModel& model, const SpringState& s) noexcept {
   return true;
 }
 
-void all_forces(const SpringModel& model, SpringState& s, const ToolState* tool) noexcept {
+// All forces at the start of the step into s.force (external ones also left in s.work). With
+// stiffness_term (the predictor's path, generic springs) s.rhs also receives −h K_L v.
+void all_forces(const SpringModel& model, SpringState& s, const ToolState* tool, bool stiffness_term = false) noexcept {
   s.tool_force = external_forces(model, s, tool, s.work);
   s.force = s.work;
+  if (stiffness_term && !model.all_pairs) {
+    s.rhs.setZero();
+    add_spring_forces_and_stiffness_term(model.network, model.options.dt, s.x, s.v, s.force, s.rhs);
+    s.anchor_force = anchor_load(model, s.force);
+    return;
+  }
   if (model.all_pairs) {
     add_all_pair_forces(model.network, model.uniform_stiffness > 0 && model.uniform_damping, s.x, s.v, s.force, s.soa);
   }
@@ -282,18 +317,21 @@ void step_predictor(const SpringModel& model, SpringState& s, const ToolState* t
   const double h = model.options.dt;
   const double gamma = model.options.point_damping;
   const Eigen::Index n = s.x.rows();
-  all_forces(model, s, tool);  // s.work holds the external forces afterwards
+  all_forces(model, s, tool, true);  // s.work holds the external forces afterwards; s.rhs −h K_L v
   const bool correct = model.options.angular_momentum_correction && net.anchors.empty();
   Vec3 ext_torque = Vec3::Zero();
   if (correct)
     for (Eigen::Index i = 0; i < n; ++i) ext_torque += s.x.row(i).transpose().cross(s.work.row(i).transpose());
-  s.rhs = s.force - gamma * s.v;
-  if (model.all_pairs && model.uniform_stiffness > 0) {
+  if (!model.all_pairs) {
+    s.rhs += s.force - gamma * s.v;  // s.rhs holds −h K_L v from the spring pass
+  } else if (model.uniform_stiffness > 0) {
     // K_L v with one stiffness over every pair: (K_L v)_i = k (n v_i − Σ_j v_j).
+    s.rhs = s.force - gamma * s.v;
     const Eigen::RowVector3d sum = s.v.colwise().sum();
     const double kh = h * model.uniform_stiffness;
     for (Eigen::Index i = 0; i < n; ++i) s.rhs.row(i) -= kh * (static_cast<double>(n) * s.v.row(i) - sum);
   } else {
+    s.rhs = s.force - gamma * s.v;
     for (size_t e = 0; e < net.springs.size(); ++e) {
       const int i = net.springs[e][0], j = net.springs[e][1];
       const double kh = h * net.stiffness[e];
