@@ -3,6 +3,7 @@
 #include <palpate/spring.h>
 
 #include "tissue/spring/shapes.h"
+#include "tissue/spring/solve.h"
 
 #include <Eigen/SparseCholesky>
 #include <benchmark/benchmark.h>
@@ -58,15 +59,25 @@ const SpringModel& cached(const std::string& key) {
   static std::map<std::string, std::unique_ptr<SpringModel>> models;
   auto& m = models[key];
   if (!m) {
+    // A key is a case, then optional variants: "/single" (float predictor), "/amd_columns" (the
+    // first kernel's solve: AMD ordering, column-by-column substitution; the baseline).
+    const std::string name = key.substr(0, key.find('/'));
+    const bool single = key.find("/single") != std::string::npos;
+    const bool amd_columns = key.find("/amd_columns") != std::string::npos;
     SpringNetwork net;
     SpringSolver solver = SpringSolver::sparse;
-    if (key == "paper") { net = paper_organ(); solver = SpringSolver::desbrun; }
-    else if (key == "block10_dense") { net = block(10); solver = SpringSolver::desbrun; }
-    else if (key == "block10") net = block(10);
-    else if (key == "block20") net = block(20);
-    else if (key == "organ10k") net = organ(13.4);
-    else if (key == "organ50k") net = organ(22.9);
-    m = std::make_unique<SpringModel>(*build_spring_model(std::move(net), options(solver)));
+    if (name == "paper") { net = paper_organ(); solver = SpringSolver::desbrun; }
+    else if (name == "block10_dense") { net = block(10); solver = SpringSolver::desbrun; }
+    else if (name == "block10") net = block(10);
+    else if (name == "block20") net = block(20);
+    else if (name == "organ10k") net = organ(13.4);
+    else if (name == "organ50k") net = organ(22.9);
+    SpringModelOptions o = options(solver);
+    o.single_precision = single;
+    auto predictor = *spring::build_predictor(net, o, amd_columns ? spring::SparseOrdering::amd
+                                                                  : spring::SparseOrdering::fewest_nonzeros);
+    m = std::make_unique<SpringModel>(*build_spring_model(std::move(net), o, std::move(predictor)));
+    if (amd_columns) m->supernodes = SpringSupernodes{};  // step() then takes the column solve
   }
   return *m;
 }
@@ -88,6 +99,15 @@ void tick(benchmark::State& state, const std::string& key) {
   state.counters["predictor_MiB"] =
       static_cast<double>(p.inverse.size() * 8 + p.value.size() * 12 + p.perm.size() * 16 + p.col_start.size() * 4) /
       (1024.0 * 1024.0);
+  // What the tick actually streams: the dense inverse, or the supernodal values and block rows.
+  const auto& sn = model.supernodes;
+  state.counters["solve_MiB"] =
+      static_cast<double>(model.inverse_single.empty() ? p.inverse.size() * 8 : model.inverse_single.size() * 4) /
+          (1024.0 * 1024.0) +
+      static_cast<double>(sn.empty() ? p.value.size() * 12
+                                     : sn.values.size() * 8 + sn.values_single.size() * 4 + sn.rows.size() * 4) /
+          (1024.0 * 1024.0);
+  state.counters["nnz_L"] = static_cast<double>(p.value.size());
 }
 
 void BM_SpringTick_PaperAllPairs500(benchmark::State& s) { tick(s, "paper"); }
@@ -102,6 +122,25 @@ BENCHMARK(BM_SpringTick_Block10_Sparse)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block20_Sparse)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Organ10k_Sparse)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Organ50k_Sparse)->Unit(benchmark::kMicrosecond);
+
+// The same cases with the predictor in float (SpringModelOptions::single_precision).
+void BM_SpringTick_PaperAllPairs500_Single(benchmark::State& s) { tick(s, "paper/single"); }
+void BM_SpringTick_Block10_Sparse_Single(benchmark::State& s) { tick(s, "block10/single"); }
+void BM_SpringTick_Block20_Sparse_Single(benchmark::State& s) { tick(s, "block20/single"); }
+void BM_SpringTick_Organ10k_Sparse_Single(benchmark::State& s) { tick(s, "organ10k/single"); }
+BENCHMARK(BM_SpringTick_PaperAllPairs500_Single)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block10_Sparse_Single)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block20_Sparse_Single)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Organ10k_Sparse_Single)->Unit(benchmark::kMicrosecond);
+
+// Baseline solve in the same process: AMD ordering and the column-by-column substitution of the
+// first version (the rest of the tick is the current code).
+void BM_SpringTick_Block10_Sparse_AmdColumns(benchmark::State& s) { tick(s, "block10/amd_columns"); }
+void BM_SpringTick_Block20_Sparse_AmdColumns(benchmark::State& s) { tick(s, "block20/amd_columns"); }
+void BM_SpringTick_Organ10k_Sparse_AmdColumns(benchmark::State& s) { tick(s, "organ10k/amd_columns"); }
+BENCHMARK(BM_SpringTick_Block10_Sparse_AmdColumns)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block20_Sparse_AmdColumns)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Organ10k_Sparse_AmdColumns)->Unit(benchmark::kMicrosecond);
 
 // Baseline: the same linear system assembled and solved with Eigen every tick
 // (SimplicialLDLT factorize + solve of M + h(γI + C_L) + h²K_L), forces as in step().
