@@ -95,6 +95,9 @@ struct SpringModelOptions {
   // sums: half the memory traffic of the solve. Δv then carries a relative error of about 1e-6
   // (test SpringSolve.SinglePrecisionErrorIsBounded), so momentum is conserved to that level and
   // not to round-off. Predictor files still hold doubles; this is not part of their parameters.
+  // On an all-pairs network with one stiffness and damping it also computes the O(n²) spring
+  // forces in float (tool force within 1e-4 of its peak: test
+  // SpringSolve.SinglePrecisionAllPairsForcesStayWithinTheirBound).
   bool single_precision = false;
 };
 
@@ -141,6 +144,7 @@ struct SpringModel {
   SpringSupernodes supernodes;          // sparse: the factor as the step uses it (built from predictor)
   std::vector<float> inverse_single;    // desbrun with single_precision: (n x n) row-major A⁻¹ in float
   double uniform_stiffness = 0;         // N/m when every spring has this stiffness (else 0): K_L v in O(n)
+  std::vector<float> rest_length_single;  // all-pairs with single_precision and uniform springs: (s) m
   bool uniform_damping = false;         // every spring has the same damping (the all-pairs kernel reads
                                         // no per-spring stiffness or damping when both are uniform)
   std::vector<std::uint8_t> anchored;   // (n) 1 for a fixed vertex
@@ -172,6 +176,7 @@ struct SpringState {
   double time = 0;  // s
   // Scratch, (n x 3) each.
   RowMat3d force, rhs, dv, work;
+  std::vector<float> soa_single;  // all-pairs kernel in single precision: (9n) as soa, in float
   std::vector<double> soa;  // all-pairs kernel: (10n) structure-of-arrays copies; sparse solve:
                             // (3n + 3·max_width) the permuted right-hand side as x…, y…, z…
   // Grasping: vertices attached to the tool and their offsets from the tip when grabbed.

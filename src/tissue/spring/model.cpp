@@ -214,6 +214,8 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
   m.total_mass = 0;
   for (double mi : m.network.mass) m.total_mass += mi;
   m.all_pairs = n > 2 && is_all_pairs(m.network);
+  if (m.all_pairs && options.single_precision && m.uniform_stiffness > 0 && m.uniform_damping)
+    m.rest_length_single.assign(m.network.rest_length.begin(), m.network.rest_length.end());
   return m;
 }
 
@@ -237,6 +239,7 @@ SpringState make_state(const SpringModel& model) {
   if (model.predictor.kind == SpringSolver::desbrun) soa = std::max(soa, static_cast<size_t>(n) * 3);
   if (!model.supernodes.empty()) soa = std::max(soa, spring::supernodal_scratch(model.predictor, model.supernodes));
   s.soa.assign(soa, 0.0);
+  s.soa_single.assign(model.rest_length_single.empty() ? 0 : static_cast<size_t>(n) * 9, 0.0f);
   return s;
 }
 

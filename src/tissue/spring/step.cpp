@@ -158,10 +158,72 @@ __attribute__((target("avx2,fma"))) void all_pairs_avx2(int n, const SpringNetwo
   }
 }
 
+// The uniform all-pairs forces in single precision (SpringModelOptions::single_precision), eight
+// springs at a time: 1/l from the reciprocal square root estimate and one Newton step (≈ 23 bits).
+// p is (9n) floats: x, y, z, vx, vy, vz, fx, fy, fz; RL the (s) rest lengths in float.
+__attribute__((target("avx2,fma"))) void all_pairs_avx2_single(int n, const float* RL, float k, float c,
+                                                                float* p) noexcept {
+  const size_t N = static_cast<size_t>(n);
+  const float *X = p, *Y = p + N, *Z = p + 2 * N, *VX = p + 3 * N, *VY = p + 4 * N, *VZ = p + 5 * N;
+  float *FX = p + 6 * N, *FY = p + 7 * N, *FZ = p + 8 * N;
+  const __m256 half = _mm256_set1_ps(0.5f), three = _mm256_set1_ps(3.0f), tiny = _mm256_set1_ps(1e-30f);
+  const __m256 kv = _mm256_set1_ps(k), cv = _mm256_set1_ps(c);
+  size_t e = 0;
+  for (int i = 0; i + 1 < n; ++i) {
+    const __m256 xi = _mm256_set1_ps(X[i]), yi = _mm256_set1_ps(Y[i]), zi = _mm256_set1_ps(Z[i]);
+    const __m256 vxi = _mm256_set1_ps(VX[i]), vyi = _mm256_set1_ps(VY[i]), vzi = _mm256_set1_ps(VZ[i]);
+    __m256 sx = _mm256_setzero_ps(), sy = sx, sz = sx;
+    int j = i + 1;
+    for (; j + 8 <= n; j += 8, e += 8) {
+      const __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(X + j), xi);
+      const __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(Y + j), yi);
+      const __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(Z + j), zi);
+      const __m256 l2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
+      const __m256 ok = _mm256_cmp_ps(l2, tiny, _CMP_GE_OQ);
+      const __m256 l2c = _mm256_max_ps(l2, tiny);
+      __m256 r = _mm256_rsqrt_ps(l2c);
+      r = _mm256_mul_ps(_mm256_mul_ps(half, r), _mm256_fnmadd_ps(_mm256_mul_ps(l2c, r), r, three));
+      const __m256 dvd = _mm256_fmadd_ps(
+          _mm256_sub_ps(_mm256_loadu_ps(VZ + j), vzi), dz,
+          _mm256_fmadd_ps(_mm256_sub_ps(_mm256_loadu_ps(VY + j), vyi), dy,
+                          _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(VX + j), vxi), dx)));
+      __m256 g = _mm256_fnmadd_ps(_mm256_mul_ps(kv, _mm256_loadu_ps(RL + e)), r, kv);
+      g = _mm256_fmadd_ps(_mm256_mul_ps(cv, dvd), _mm256_mul_ps(r, r), g);
+      g = _mm256_and_ps(g, ok);
+      const __m256 fx = _mm256_mul_ps(g, dx), fy = _mm256_mul_ps(g, dy), fz = _mm256_mul_ps(g, dz);
+      sx = _mm256_add_ps(sx, fx); sy = _mm256_add_ps(sy, fy); sz = _mm256_add_ps(sz, fz);
+      _mm256_storeu_ps(FX + j, _mm256_sub_ps(_mm256_loadu_ps(FX + j), fx));
+      _mm256_storeu_ps(FY + j, _mm256_sub_ps(_mm256_loadu_ps(FY + j), fy));
+      _mm256_storeu_ps(FZ + j, _mm256_sub_ps(_mm256_loadu_ps(FZ + j), fz));
+    }
+    alignas(32) float hx[8], hy[8], hz[8];
+    _mm256_store_ps(hx, sx); _mm256_store_ps(hy, sy); _mm256_store_ps(hz, sz);
+    float tx = 0, ty = 0, tz = 0;
+    for (int q = 0; q < 8; ++q) {
+      tx += hx[q]; ty += hy[q]; tz += hz[q];
+    }
+    for (; j < n; ++j, ++e) {
+      const float dx = X[j] - X[i], dy = Y[j] - Y[i], dz = Z[j] - Z[i];
+      const float l2 = dx * dx + dy * dy + dz * dz;
+      if (!(l2 >= 1e-30f)) continue;
+      const float r = 1.0f / std::sqrt(l2);
+      const float dvd = (VX[j] - VX[i]) * dx + (VY[j] - VY[i]) * dy + (VZ[j] - VZ[i]) * dz;
+      const float g = k - k * RL[e] * r + c * dvd * r * r;
+      tx += g * dx; ty += g * dy; tz += g * dz;
+      FX[j] -= g * dx; FY[j] -= g * dy; FZ[j] -= g * dz;
+    }
+    FX[i] += tx; FY[i] += ty; FZ[i] += tz;
+  }
+}
+
+bool has_avx2_fma() noexcept {
+  static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return yes;
+}
+
 void all_pairs_rows(const SpringNetwork& net, bool uniform, double* p) noexcept {
-  static const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   const int n = static_cast<int>(net.size());
-  if (avx2) {
+  if (has_avx2_fma()) {
     if (uniform) all_pairs_avx2<true>(n, net, p);
     else all_pairs_avx2<false>(n, net, p);
   } else {
@@ -172,10 +234,27 @@ void all_pairs_rows(const SpringNetwork& net, bool uniform, double* p) noexcept 
 
 // The same forces for every pair (the seed paper's topology), on structure-of-arrays copies so the
 // inner loop over j > i is contiguous and vectorised. soa is (10n): x, y, z, vx, vy, vz, fx, fy, fz
-// (and one spare), each n long. uniform: every spring has the stiffness and damping of the first.
-void add_all_pair_forces(const SpringNetwork& net, bool uniform, const RowMat3d& x, const RowMat3d& v, RowMat3d& f,
-                         std::vector<double>& soa) noexcept {
+// (and one spare), each n long, in s.soa; with the model's single-precision rest lengths (and AVX2)
+// the float kernel on s.soa_single instead.
+void add_all_pair_forces(const SpringModel& model, const RowMat3d& x, const RowMat3d& v, RowMat3d& f,
+                         SpringState& s) noexcept {
+  const SpringNetwork& net = model.network;
+  const bool uniform = model.uniform_stiffness > 0 && model.uniform_damping;
   const Eigen::Index n = x.rows();
+  if (!model.rest_length_single.empty() && has_avx2_fma()) {
+    using ArrF = Eigen::Map<Eigen::ArrayXf>;
+    float* q = s.soa_single.data();
+    ArrF X(q, n), Y(q + n, n), Z(q + 2 * n, n), VX(q + 3 * n, n), VY(q + 4 * n, n), VZ(q + 5 * n, n);
+    ArrF FX(q + 6 * n, n), FY(q + 7 * n, n), FZ(q + 8 * n, n);
+    X = x.col(0).array().cast<float>(); Y = x.col(1).array().cast<float>(); Z = x.col(2).array().cast<float>();
+    VX = v.col(0).array().cast<float>(); VY = v.col(1).array().cast<float>(); VZ = v.col(2).array().cast<float>();
+    FX.setZero(); FY.setZero(); FZ.setZero();
+    all_pairs_avx2_single(static_cast<int>(n), model.rest_length_single.data(), static_cast<float>(net.stiffness[0]),
+                          static_cast<float>(net.damping[0]), q);
+    f.col(0).array() += FX.cast<double>(); f.col(1).array() += FY.cast<double>(); f.col(2).array() += FZ.cast<double>();
+    return;
+  }
+  std::vector<double>& soa = s.soa;
   using Arr = Eigen::Map<Eigen::ArrayXd>;
   double* p = soa.data();
   Arr X(p, n), Y(p + n, n), Z(p + 2 * n, n), VX(p + 3 * n, n), VY(p + 4 * n, n), VZ(p + 5 * n, n);
@@ -332,7 +411,7 @@ void all_forces(const SpringModel& model, SpringState& s, const ToolState* tool,
     return;
   }
   if (model.all_pairs) {
-    add_all_pair_forces(model.network, model.uniform_stiffness > 0 && model.uniform_damping, s.x, s.v, s.force, s.soa);
+    add_all_pair_forces(model, s.x, s.v, s.force, s);
   }
   else add_spring_forces(model.network, s.x, s.v, s.force);
   s.anchor_force = anchor_load(model, s.force);
