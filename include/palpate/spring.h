@@ -118,10 +118,11 @@ struct SpringPredictor {
 };
 
 // The per-tick form of a sparse predictor's factor L (unit lower triangular, permuted), derived
-// from SpringPredictor when the model is built and never stored in files. Consecutive columns with
-// the same row structure below a dense triangle form a supernode (Liu, Ng & Peyton 1993), kept as
-// one dense block, so the triangular solves stream contiguous values with one row index per block
-// row instead of one per entry. S supernodes.
+// from SpringPredictor when the model is built and never stored in files. Runs of consecutive
+// columns with (nearly) the same rows below them form a supernode (Liu, Ng & Peyton 1993; relaxed:
+// entries L lacks are stored as zeros, at most half as many as it has), kept as one dense block, so
+// the triangular solves stream contiguous values with one row index per block row instead of one
+// per entry. S supernodes.
 struct SpringSupernodes {
   std::vector<int> first_column;  // (S + 1) supernode k holds columns [first_column[k], first_column[k + 1])
   std::vector<int> row_start;     // (S + 1) its rows below the block: rows[row_start[k] .. row_start[k + 1])

@@ -206,11 +206,9 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
   // missing from L are stored as zeros), so grow a block while its stored size stays within
   // (1 + max_padding) of the entries it holds. U is the block's row set below its last column.
   std::vector<int> U, merged;
-  std::vector<int> block_rows;  // rows[] for the block being grown
   sn.first_column.push_back(0);
   int f = 0;
   size_t held = 0;
-  U.clear();
   auto close_block = [&](int e) {
     sn.first_column.push_back(e);
     sn.rows.insert(sn.rows.end(), U.begin(), U.end());
@@ -230,7 +228,7 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
       const size_t w = static_cast<size_t>(c - f + 1);
       const size_t stored = w * (w - 1) / 2 + merged.size() * w;
       if (static_cast<int>(w) <= max_width &&
-          static_cast<double>(stored) <= (1.0 + max_padding) * static_cast<double>(held + count) + 0.0) {
+          static_cast<double>(stored) <= (1.0 + max_padding) * static_cast<double>(held + count)) {
         U.swap(merged);
         held += count;
         continue;

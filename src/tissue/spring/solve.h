@@ -30,8 +30,8 @@ SpringSupernodes make_supernodes(const SpringPredictor& predictor, bool single =
 size_t supernodal_scratch(const SpringPredictor& predictor, const SpringSupernodes& supernodes);
 
 // x = A⁻¹ b for b, x (n x 3) with A = Pᵀ L D Lᵀ P: permute into structure-of-arrays, forward
-// substitution by supernodes (dense triangle, then the block below), scale by D⁻¹, back
-// substitution, permute back. The three coordinates share every value of L read; float values are
+// substitution block by block (gather the block's entries, one axpy per column, scatter), scale by
+// D⁻¹, back substitution (one dot per column), permute back. The three coordinates share every value of L read; float values are
 // widened and accumulated in double. scratch holds
 // supernodal_scratch() doubles. b and x may not alias.
 void solve_supernodal(const SpringPredictor& predictor, const SpringSupernodes& supernodes, const RowMat3d& b,
