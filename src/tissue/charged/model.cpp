@@ -150,8 +150,10 @@ Result<ChargedModel> build_charged_patch(const PatchDef& p, const ChargedMateria
   const Vec3 axis_point = m.center - m.radius * m.normal;  // cylinder axis / sphere centre
   for (int r = 0; r < m.rows; ++r) {
     for (int c = 0; c < m.cols; ++c) {
-      const double u = (c + 0.5 * (r & 1)) * m.spacing - m.u_mid;
-      const double v = r * m.row_pitch - m.v_mid;
+      // Integer offsets from the patch centre, one rounding each: a particle at the same place
+      // relative to the centre has bit-identical coordinates in patches of any size.
+      const double u = (4 * c + 2 * (r & 1) - (2 * m.cols - 1)) * (m.spacing / 4);
+      const double v = (2 * r - (m.rows - 1)) * (m.row_pitch / 2);
       Vec3 pos, nrm;
       switch (m.layout) {
         case ChargedLayout::cylinder: {

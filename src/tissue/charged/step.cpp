@@ -174,8 +174,11 @@ bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, cons
   return any;
 }
 
-// Stage 2 — repulsion: a particle inside the HIP's sphere of influence is pushed radially out to
-// its surface (where the repulsion vanishes), but never beyond max_displacement from its origin.
+// Stage 2 — repulsion: a particle inside the HIP's sphere of influence is pushed inward along its
+// own surface normal out to the sphere's surface (where the repulsion vanishes), but never beyond
+// max_displacement from its origin. Pushing along the normal (not radially, and always inward:
+// the tool comes from the outer side) keeps particles from sliding around or over the HIP, so a
+// tool cannot slip through or under the patch without puncturing it.
 void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, size_t& q_tail) noexcept {
   const double R = m.material.sphere_of_influence, D = m.material.max_displacement;
   for_each_candidate(m, h, R + D, [&](int i) {
@@ -184,15 +187,13 @@ void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, size_t& q_
     if (s.flags[k] & kReversed) return;
     const Vec3 p = s.position(k);
     const Vec3 d = p - h;
-    const double r = d.norm();
-    if (r >= R) return;
+    const double r2 = d.squaredNorm();
+    if (r2 >= R * R) return;
+    // |d - t n|² = R²  →  t = d·n + √((d·n)² − |d|² + R²) > 0, the exit on the inner side.
+    const Vec3 n = m.particle_normal(k).normalized();
+    const double dn = d.dot(n), t = dn + std::sqrt(dn * dn - r2 + R * R);
     const Vec3 o = m.origin(k);
-    Vec3 dir = d / r;
-    if (!(r > 1e-9 * R)) {  // on the HIP's centre: push along origin - HIP, else outward normal
-      const Vec3 oh = o - h;
-      dir = oh.norm() > 1e-9 * R ? Vec3(oh.normalized()) : Vec3(-m.particle_normal(k).normalized());
-    }
-    Vec3 target = h + R * dir;
+    Vec3 target = p - t * n;
     const Vec3 e = target - o;
     const double el = e.norm();
     if (el > D) target = o + e * (D / el);
@@ -258,21 +259,23 @@ void propagation(const ChargedModel& m, ChargedState& s, size_t q_head, size_t q
 // factor for all keeps every neighbour pair within max_separation (a convex combination).
 void relaxation(const ChargedModel& m, ChargedState& s, double dt) noexcept {
   const double alpha = std::exp(-m.material.elasticity * dt);
-  const double settle2 = (1e-6 * m.spacing) * (1e-6 * m.spacing);
+  const double settle2 = (1e-4 * m.spacing) * (1e-4 * m.spacing);
   double max_d2 = 0;
   for (size_t a = 0; a < s.active_count;) {
     const int i = s.active[a];
     const auto k = static_cast<size_t>(i);
     const Vec3 o = m.origin(k);
-    const Vec3 d = (s.position(k) - o) * alpha;
-    if (d.squaredNorm() <= settle2) {  // home: leave the active set (swap-remove, deterministic)
-      set_position(s, i, o);
+    const Vec3 before = s.position(k);
+    const Vec3 d = (before - o) * alpha;
+    if (alpha != 1.0) set_position(s, i, o + d);
+    // Home when within 1e-4 spacing, or when float resolution stops the approach (no progress).
+    if (d.squaredNorm() <= settle2 || (alpha != 1.0 && s.position(k) == before)) {
+      set_position(s, i, o);  // leave the active set: swap-remove (deterministic)
       s.flags[k] &= static_cast<std::uint8_t>(~kActive);
       s.active[a] = s.active[--s.active_count];
       continue;
     }
-    if (alpha != 1.0) set_position(s, i, o + d);
-    max_d2 = std::max(max_d2, d.squaredNorm());
+    max_d2 = std::max(max_d2, (s.position(k) - o).squaredNorm());
     ++a;
   }
   s.stats.max_displacement = std::sqrt(max_d2);
@@ -323,6 +326,8 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
   // 5. Force on the HIP: repulsion of the particles in its sphere of influence, attraction of
   // charge-reversed (punctured) particles near the tool, friction along every track it is in.
   Vec3 force = Vec3::Zero();
+  // Pushed to max_displacement in stage 2, then relaxed once by exp(-λ dt) in stage 4.
+  const double pinned_at = kPinnedFraction * D * std::exp(-mat.elasticity * dt);
   int nearest_pinned = -1;
   double nearest_r = R;
   auto attract = [&](int i, const Vec3& from) {
@@ -338,7 +343,7 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
       const double r = d.norm();
       if (!(r < R)) return;
       ++s.stats.contacts;
-      if ((s.position(k) - m.origin(k)).norm() >= kPinnedFraction * D) {
+      if ((s.position(k) - m.origin(k)).norm() >= pinned_at) {
         ++s.stats.pinned;
         if (r < nearest_r) nearest_r = r, nearest_pinned = i;
       }
