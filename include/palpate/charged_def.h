@@ -17,7 +17,7 @@ struct ChargedMaterialDef {
   bool hole_closes = false;            // whether a puncture hole closes once the tool leaves
   double track_friction = 0.3;         // N, kinetic friction of a punctured layer on the tool
   double friction_velocity = 0.001;    // m/s, axial speed at which friction reaches ~76% (tanh)
-  double mesh_spacing = 0.002;         // m, particle spacing when the patch is laid on a mesh
+  double mesh_spacing = 0.001;         // m, particle spacing when the patch is laid on a mesh
 };
 
 std::span<const Param<ChargedMaterialDef>> param_table(const ChargedMaterialDef*);

@@ -220,8 +220,7 @@ Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface, const Cha
   if (extent / s > 2e4)
     return Error{where + ": material 'mesh_spacing' (" + num(s) + " m) is too fine for a surface " +
                  num(extent) + " m across; expected at most 20000 particles along it"};
-  // Remeshed edges lie within [4/5, 4/3] of the target: max_separation must clear the longest.
-  if (Status st = check_material(material, 4.0 / 3.0 * s, where); !st) return st.error();
+  if (Status st = check_material(material, 0.0, where); !st) return st.error();
 
   Result<SurfaceMesh> remeshed = charged::remesh_isotropic(surface, s, where);
   if (!remeshed) return remeshed.error();
@@ -257,6 +256,12 @@ Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface, const Cha
       b.erase(std::find(b.begin(), b.end(), static_cast<int>(i)));
     }
   }
+
+  // Remeshed edges are about [4/5, 4/3] of the target: max_separation must clear the longest kept.
+  double longest = 0;
+  for (size_t i = 0; i < n; ++i)
+    for (int j : adj[i]) longest = std::max(longest, len(static_cast<int>(i), j));
+  if (Status st = check_material(material, longest, where); !st) return st.error();
 
   ChargedModel m;
   m.material = material;
