@@ -1,5 +1,8 @@
 // bench_device.cpp — cost of reading the scripted device once per tick.
 #include <palpate/device.h>
+#include <palpate/safety.h>
+
+#include <cmath>
 
 #include <benchmark/benchmark.h>
 
@@ -17,3 +20,15 @@ static void BM_ScriptedDeviceRead(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_ScriptedDeviceRead);
+
+// Cost of the safety filter every force passes through once per tick.
+static void BM_ForceSafetyFilter(benchmark::State& state) {
+  palpate::ForceSafety safety(palpate::DeviceLimits{}, 0.1);
+  double phase = 0;
+  for (auto _ : state) {
+    phase += 0.37;
+    const palpate::Vec3 f = safety.filter(palpate::Vec3(std::sin(phase), 4.0 * std::cos(phase), 0.1), 0.001, true);
+    benchmark::DoNotOptimize(f);
+  }
+}
+BENCHMARK(BM_ForceSafetyFilter);

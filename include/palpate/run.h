@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,7 @@ namespace palpate {
 struct RunOptions {
   std::filesystem::path out;                         // output directory; "" = the scene's
   std::function<void(double fraction)> progress;     // called now and then, off the tick path
+  bool plots = true;                                 // force_time.png, force_depth.png (gnuplot)
 };
 
 struct RunEvent {
@@ -31,11 +33,19 @@ struct RunSummary {
   double max_force = 0;                           // N, largest force sent to the device
   std::vector<RunEvent> events;
   std::filesystem::path csv, summary_json;        // where the outputs went
+  std::vector<std::filesystem::path> plots;       // PNG plots written, if any
+  std::string plot_error;                         // why plots are missing, if they are
 };
 
 // Run `scene` for its duration at its fixed tick, with its device; write `run.csv` and
 // `summary.json` atomically into the output directory.
 Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options = {});
+
+// The same with tissues built by the caller (a model of your own, or ones already built);
+// `scene.tissues` is then not used.
+class Tissue;
+Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<Tissue>> tissues,
+                             const RunOptions& options = {});
 
 // Write `text` to `file` atomically: a temporary file in the same directory, then rename.
 Status write_file_atomic(const std::filesystem::path& file, const std::string& text);

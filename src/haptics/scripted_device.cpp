@@ -4,9 +4,18 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <cstdlib>
 #include <sstream>
 
 namespace palpate {
+
+namespace {
+std::string fmt_number(double x) {
+  std::ostringstream ss;
+  ss << x;
+  return ss.str();
+}
+}  // namespace
 
 ScriptedDevice::ScriptedDevice(std::vector<Waypoint> waypoints, DeviceLimits limits)
     : waypoints_(std::move(waypoints)), limits_(limits) {
@@ -48,22 +57,33 @@ Result<std::vector<Waypoint>> load_trajectory_csv(const std::filesystem::path& f
   std::vector<Waypoint> points;
   std::string line;
   int lineno = 0;
+  bool header_allowed = true;
   while (std::getline(in, line)) {
     ++lineno;
     if (line.empty() || line[0] == '#') continue;
     std::replace(line.begin(), line.end(), ',', ' ');
-    std::istringstream ss(line);
-    Waypoint w;
-    if (!(ss >> w.t >> w.position.x() >> w.position.y() >> w.position.z())) {
-      if (points.empty() && lineno == 1) continue;  // a header line
+    // strtod, not >>: it reads "nan" and "inf", which are then refused by name.
+    double v[4];
+    int n = 0;
+    const char* p = line.c_str();
+    for (; n < 4; ++n) {
+      char* end = nullptr;
+      v[n] = std::strtod(p, &end);
+      if (end == p) break;
+      p = end;
+    }
+    const bool first = header_allowed;
+    header_allowed = false;
+    if (n == 0 && first) continue;  // a header line such as "t,x,y,z"
+    if (n < 4)
       return Error{file.string() + ":" + std::to_string(lineno) +
                    ": expected four numbers t,x,y,z (s, m, m, m)"};
-    }
+    Waypoint w{v[0], Vec3(v[1], v[2], v[3])};
     if (!std::isfinite(w.t) || !w.position.allFinite())
       return Error{file.string() + ":" + std::to_string(lineno) + ": value is NaN or infinite"};
     if (!points.empty() && w.t < points.back().t)
-      return Error{file.string() + ":" + std::to_string(lineno) + ": time " + std::to_string(w.t) +
-                   " s goes back (previous " + std::to_string(points.back().t) + " s)"};
+      return Error{file.string() + ":" + std::to_string(lineno) + ": time " + fmt_number(w.t) +
+                   " s goes back (previous " + fmt_number(points.back().t) + " s)"};
     points.push_back(w);
   }
   if (points.empty()) return Error{file.string() + ": trajectory has no rows (expected t,x,y,z)"};

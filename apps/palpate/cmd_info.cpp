@@ -1,0 +1,66 @@
+// cmd_info.cpp — `palpate info FILE`: what a mesh holds and whether a model can use it.
+#include <palpate/palpate.h>
+
+#include "commands.h"
+
+#include <fmt/core.h>
+
+namespace palpate::cli {
+
+namespace {
+
+int info_command(const std::string& file, double scale) {
+  MeshInfo info;
+  if (is_tet_file(file)) {
+    auto m = load_tet(file, scale);
+    if (!m) {
+      fmt::print(stderr, "palpate info: {}\n", m.error().message);
+      return 2;
+    }
+    info = describe(*m);
+  } else {
+    auto m = load_surface(file, scale);
+    if (!m) {
+      fmt::print(stderr, "palpate info: {}\n", m.error().message);
+      return 2;
+    }
+    info = describe(*m);
+  }
+  fmt::print("file        {}\n", file);
+  fmt::print("kind        {}\n", info.kind);
+  fmt::print("vertices    {}\n", info.vertices);
+  fmt::print("triangles   {}\n", info.triangles);
+  if (info.kind == "tetrahedral") fmt::print("tetrahedra  {}\n", info.tetrahedra);
+  fmt::print("bbox min    {:.6g} {:.6g} {:.6g}\n", info.bbox_min.x(), info.bbox_min.y(),
+             info.bbox_min.z());
+  fmt::print("bbox max    {:.6g} {:.6g} {:.6g}\n", info.bbox_max.x(), info.bbox_max.y(),
+             info.bbox_max.z());
+  const Vec3 size = info.bbox_max - info.bbox_min;
+  fmt::print("size        {:.6g} x {:.6g} x {:.6g}\n", size.x(), size.y(), size.z());
+  fmt::print("closed      {} ({} boundary edges)\n", info.closed ? "yes" : "no", info.boundary_edges);
+  fmt::print("manifold    {} ({} non-manifold edges)\n", info.manifold ? "yes" : "no",
+             info.non_manifold_edges);
+  if (info.kind == "tetrahedral")
+    fmt::print("volume      {:.6g} (sum of tetrahedra)\n", info.volume);
+  else if (info.closed)
+    fmt::print("volume      {:.6g} (enclosed)\n", info.volume);
+  else
+    fmt::print("volume      - (surface is open)\n");
+  fmt::print("edges       {}  min {:.6g}  mean {:.6g}  median {:.6g}  max {:.6g}\n",
+             info.edges.count, info.edges.min, info.edges.mean, info.edges.median, info.edges.max);
+  return 0;
+}
+
+}  // namespace
+
+void add_info_command(CLI::App& app) {
+  auto file = std::make_shared<std::string>();
+  auto scale = std::make_shared<double>(1.0);
+  CLI::App* info = app.add_subcommand("info", "Describe a mesh: counts, bounding box, closed/manifold, volume, edge lengths");
+  info->add_option("file", *file, "Mesh file: OBJ, STL, PLY, OFF, Gmsh .msh, TetGen .node/.ele, VTK")
+      ->required()->check(CLI::ExistingFile);
+  info->add_option("--scale", *scale, "Multiply coordinates by this factor")->check(CLI::PositiveNumber);
+  info->callback([file, scale] { throw CLI::RuntimeError(info_command(*file, *scale)); });
+}
+
+}  // namespace palpate::cli

@@ -1,0 +1,216 @@
+// tet_gmsh.cpp — everything that touches Gmsh: reading .msh files (v1, v2, v4) and filling a
+// closed surface with tetrahedra. The only file of palpate that includes gmsh.h.
+#include "io/mesh_io.h"
+
+#include <gmsh.h>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <fstream>
+#include <mutex>
+#include <numeric>
+#include <unordered_map>
+#include <vector>
+
+namespace palpate::io {
+
+namespace {
+
+constexpr int kGmshTriangle = 2;     // Gmsh element type: 3-node triangle
+constexpr int kGmshTetrahedron = 4;  // Gmsh element type: 4-node tetrahedron
+
+// Gmsh keeps one global model and option set: every use goes through this lock.
+std::mutex& gmsh_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+// Called with the lock held. Initialises Gmsh once, silent, and with errors logged rather than
+// thrown: an exception thrown from inside Gmsh's readers leaves it "busy" for every later call.
+void ensure_gmsh() {
+  static bool initialised = false;
+  if (initialised) return;
+  gmsh::initialize(0, nullptr, false);
+  gmsh::option::setNumber("General.Terminal", 0);
+  gmsh::option::setNumber("General.AbortOnError", 0);
+  gmsh::option::setNumber("General.Verbosity", 2);  // errors and warnings only
+  initialised = true;
+}
+
+// Runs `work` on Gmsh with message capture; returns Gmsh's error messages joined ("" = none).
+template <class Work>
+std::string run_gmsh(Work&& work) {
+  std::string failure;
+  gmsh::logger::start();
+  try {
+    gmsh::clear();
+    work();
+  } catch (const std::exception& e) {
+    failure = e.what();
+  } catch (const std::string& s) {
+    failure = s;
+  } catch (...) {
+    failure = "unknown Gmsh failure";
+  }
+  std::vector<std::string> log;
+  gmsh::logger::get(log);
+  gmsh::logger::stop();
+  std::string errors;
+  for (const std::string& line : log)
+    if (line.rfind("Error: ", 0) == 0) {
+      if (!errors.empty()) errors += "; ";
+      errors += line.substr(7);
+    }
+  if (errors.empty()) errors = failure;
+  gmsh::clear();  // leave no model behind holding memory
+  return errors;
+}
+
+// The nodes (sorted by tag) and tetrahedra (sorted by element tag) of Gmsh's current model.
+Result<TetMesh> current_tets(const std::string& where) {
+  std::vector<std::size_t> node_tags;
+  std::vector<double> coords, params;
+  gmsh::model::mesh::getNodes(node_tags, coords, params, -1, -1, false, false);
+  std::vector<std::size_t> order(node_tags.size());
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return node_tags[a] < node_tags[b]; });
+  TetMesh mesh;
+  mesh.V.resize(static_cast<Eigen::Index>(node_tags.size()), 3);
+  std::unordered_map<std::size_t, int> index_of;
+  index_of.reserve(node_tags.size());
+  for (size_t i = 0; i < order.size(); ++i) {
+    const size_t j = order[i];
+    if (!index_of.emplace(node_tags[j], static_cast<int>(i)).second)
+      return Error{fmt::format("{}: node tag {} appears twice", where, node_tags[j])};
+    for (int k = 0; k < 3; ++k) mesh.V(static_cast<Eigen::Index>(i), k) = coords[3 * j + k];
+  }
+
+  std::vector<std::size_t> elem_tags, elem_nodes;
+  gmsh::model::mesh::getElementsByType(kGmshTetrahedron, elem_tags, elem_nodes, -1);
+  if (elem_nodes.size() != 4 * elem_tags.size())
+    return Error{fmt::format("{}: Gmsh returned {} nodes for {} tetrahedra", where, elem_nodes.size(), elem_tags.size())};
+  std::vector<std::size_t> by_tag(elem_tags.size());
+  std::iota(by_tag.begin(), by_tag.end(), size_t{0});
+  std::stable_sort(by_tag.begin(), by_tag.end(), [&](size_t a, size_t b) { return elem_tags[a] < elem_tags[b]; });
+  mesh.T.resize(static_cast<Eigen::Index>(elem_tags.size()), 4);
+  for (size_t r = 0; r < by_tag.size(); ++r) {
+    const size_t e = by_tag[r];
+    for (int k = 0; k < 4; ++k) {
+      const auto it = index_of.find(elem_nodes[4 * e + k]);
+      if (it == index_of.end())
+        return Error{fmt::format("{}: tetrahedron {} (element tag {}) refers to node {}, which is not defined", where,
+                                 r, elem_tags[e], elem_nodes[4 * e + k])};
+      mesh.T(static_cast<Eigen::Index>(r), k) = it->second;
+    }
+  }
+  return mesh;
+}
+
+// Gmsh parses any file not starting with '$' as a .geo script (which can run commands): only a
+// file whose first line opens a mesh section is handed to it.
+Status check_msh_header(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::string first;
+  char c = 0;
+  while (in.get(c) && (c == ' ' || c == '\t' || c == '\r' || c == '\n')) {
+  }
+  if (in) first += c;
+  while (first.size() < 64 && in.get(c) && c != '\n' && c != '\r') first += c;
+  while (!first.empty() && (first.back() == ' ' || first.back() == '\t')) first.pop_back();
+  for (const char* ok : {"$MeshFormat", "$NOD", "$NOE", "$Comments"})
+    if (first == ok) return {};
+  std::string shown;
+  for (char ch : first.substr(0, 40)) shown += (ch >= 32 && ch < 127) ? ch : '?';
+  return Error{fmt::format("{}:1: expected a Gmsh mesh header ($MeshFormat, or $NOD for format 1), found '{}'",
+                           file.string(), shown)};
+}
+
+}  // namespace
+
+Result<TetMesh> read_gmsh(const std::filesystem::path& file) {
+  const std::string where = file.string();
+  if (Status s = check_msh_header(file); !s) return s.error();
+  std::lock_guard lock(gmsh_mutex());
+  ensure_gmsh();
+  Result<TetMesh> mesh = Error{""};
+  const std::string errors = run_gmsh([&] {
+    gmsh::open(where);
+    mesh = current_tets(where);
+  });
+  if (!errors.empty()) return Error{fmt::format("{}: Gmsh could not read the mesh: {}", where, errors)};
+  if (!mesh) return mesh.error();
+  if (mesh->T.rows() == 0)
+    return Error{fmt::format("{}: no tetrahedra (Gmsh element type 4) in the mesh", where)};
+  return mesh;
+}
+
+// Gmsh's Delaunay mesher fills the volume bounded by the surface's own triangles (kept as a
+// discrete surface, not remeshed), adding interior nodes as Mesh.MeshSizeMax demands.
+Result<TetMesh> gmsh_fill(const SurfaceMesh& surface, double max_edge, const std::string& where) {
+  // Only the vertices the triangles use go to Gmsh: it would keep stray nodes in the surface.
+  std::vector<int> new_index(static_cast<size_t>(surface.V.rows()), -1);
+  std::vector<double> coords;
+  std::vector<std::size_t> node_tags, tri_nodes;
+  tri_nodes.reserve(static_cast<size_t>(surface.F.size()));
+  for (Eigen::Index f = 0; f < surface.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      int& n = new_index[static_cast<size_t>(surface.F(f, k))];
+      if (n < 0) {
+        n = static_cast<int>(node_tags.size());
+        node_tags.push_back(node_tags.size() + 1);
+        for (int d = 0; d < 3; ++d) coords.push_back(surface.V(surface.F(f, k), d));
+      }
+      tri_nodes.push_back(static_cast<std::size_t>(n) + 1);
+    }
+  std::vector<std::size_t> tri_tags(static_cast<size_t>(surface.F.rows()));
+  std::iota(tri_tags.begin(), tri_tags.end(), std::size_t{1});
+
+  std::lock_guard lock(gmsh_mutex());
+  ensure_gmsh();
+  Result<TetMesh> mesh = Error{""};
+  const std::string errors = run_gmsh([&] {
+    gmsh::model::add("palpate_tetrahedralize");
+    const int surf = gmsh::model::addDiscreteEntity(2);
+    gmsh::model::mesh::addNodes(2, surf, node_tags, coords);
+    gmsh::model::mesh::addElementsByType(surf, kGmshTriangle, tri_tags, tri_nodes);
+    const int loop = gmsh::model::geo::addSurfaceLoop({surf});
+    gmsh::model::geo::addVolume({loop});
+    gmsh::model::geo::synchronize();
+    gmsh::option::setNumber("Mesh.MeshSizeMax", max_edge > 0 ? max_edge : 1e22);  // 1e22: Gmsh's default
+    gmsh::model::mesh::generate(3);
+    gmsh::option::setNumber("Mesh.MeshSizeMax", 1e22);
+    mesh = current_tets(where);
+  });
+  if (!errors.empty()) return Error{fmt::format("{}: Gmsh could not fill the surface with tetrahedra: {}", where, errors)};
+  if (!mesh) return mesh.error();
+  if (mesh->T.rows() == 0) return Error{fmt::format("{}: Gmsh produced no tetrahedra", where)};
+  return mesh;
+}
+
+}  // namespace palpate::io
+
+namespace palpate {
+
+Result<TetMesh> tetrahedralize(const SurfaceMesh& surface, double max_edge) {
+  const std::string where = "tetrahedralize";
+  if (!std::isfinite(max_edge) || max_edge < 0)
+    return Error{fmt::format("{}: max_edge is {}, expected 0 (as the surface's edges) or a positive length in m",
+                             where, max_edge)};
+  if (Status s = validate(surface, where, SurfaceRequirements{.manifold = true, .closed = true}); !s)
+    return s.error();
+  Result<TetMesh> mesh = io::gmsh_fill(surface, max_edge, where);
+  if (!mesh) return mesh;
+  // Gmsh's tetrahedra follow its own reference element (positive), but an inward-facing
+  // surface may hand back the mirror image: orient each one positively, whatever came out.
+  for (Eigen::Index t = 0; t < mesh->T.rows(); ++t) {
+    const auto p = [&](int k) -> Vec3 { return mesh->V.row(mesh->T(t, k)).transpose(); };
+    if ((p(1) - p(0)).dot((p(2) - p(0)).cross(p(3) - p(0))) < 0) std::swap(mesh->T(t, 2), mesh->T(t, 3));
+  }
+  if (Status s = validate(*mesh, where); !s) return s.error();
+  return mesh;
+}
+
+}  // namespace palpate
