@@ -4,10 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
 #include <map>
 #include <set>
-#include <sstream>
 
 using namespace palpate;
 
@@ -119,35 +117,6 @@ void expect_at_most_six_symmetric_neighbours(const ChargedModel& m) {
   }
 }
 
-// Minimal OBJ reader for the shared liver (v and f lines; f entries may carry /vt/vn).
-SurfaceMesh read_obj(const std::string& path, double scale) {
-  std::ifstream in(path);
-  std::vector<Vec3> v;
-  std::vector<std::array<int, 3>> f;
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream s(line);
-    std::string tag;
-    s >> tag;
-    if (tag == "v") {
-      Vec3 p;
-      s >> p.x() >> p.y() >> p.z();
-      v.push_back(p * scale);
-    } else if (tag == "f") {
-      std::vector<int> idx;
-      std::string tok;
-      while (s >> tok) idx.push_back(std::stoi(tok.substr(0, tok.find('/'))) - 1);
-      for (size_t k = 1; k + 1 < idx.size(); ++k) f.push_back({idx[0], idx[k], idx[k + 1]});
-    }
-  }
-  SurfaceMesh m;
-  m.V.resize(Eigen::Index(v.size()), 3);
-  for (size_t i = 0; i < v.size(); ++i) m.V.row(Eigen::Index(i)) = v[i];
-  m.F.resize(Eigen::Index(f.size()), 3);
-  for (size_t i = 0; i < f.size(); ++i) m.F.row(Eigen::Index(i)) << f[i][0], f[i][1], f[i][2];
-  return m;
-}
-
 }  // namespace
 
 TEST(ChargedMesh, ClosedSphereStaysClosedWithParticlesOnItAndOutwardNormals) {
@@ -206,8 +175,10 @@ TEST(ChargedMesh, OpenSheetKeepsItsBoundaryExactly) {
 }
 
 TEST(ChargedMesh, LiverSurfacePatchIsOnTheSurfaceClosedAndAtMostSixNeighbours) {
-  const SurfaceMesh liver = read_obj(std::string(PALPATE_SHARED_DATA_DIR) + "/meshes/liver-smooth.obj", 0.01);
-  ASSERT_EQ(liver.V.rows(), 2194);
+  auto loaded = load_surface(std::string(PALPATE_SHARED_DATA_DIR) + "/meshes/liver-smooth.obj", 0.01);
+  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+  const SurfaceMesh& liver = *loaded;
+  ASSERT_GT(liver.F.rows(), 4000);
   ChargedMaterialDef mat;
   mat.mesh_spacing = 0.003;
   mat.max_separation = 0.0048;
