@@ -106,13 +106,26 @@ TEST(ChargedTissue, MeshSceneLaysParticlesOnTheLoadedSurface) {
 }
 
 TEST(ChargedTissue, BadDefinitionsAreErrorsNamingTheTissue) {
-  SceneDef scene = scene_of("tissues:\n  - name: skin\n    patch: {spacing: 0.001}\n    material: {max_separation: 0.0009}\n");
+  // Built in memory (the scene parser already refuses this case with its own message).
+  SceneDef scene;
+  scene.file = "t.yaml";
+  scene.tissues.resize(1);
+  scene.tissues[0].name = "skin", scene.tissues[0].line = 2;
+  scene.tissues[0].patch = PatchDef{};
+  scene.tissues[0].charged.max_separation = 0.0009;
   auto tight = make_tissue(scene, 0);
   ASSERT_FALSE(tight.ok());
   EXPECT_EQ(tight.error().message,
             "t.yaml:2: tissue 'skin': material 'max_separation' (0.0009 m) must exceed the rest distance "
             "between neighbours (0.001 m), or the patch would violate the separation rule at rest");
-  SceneDef missing = scene_of("tissues:\n  - name: organ\n    mesh: {file: meshes/no-such.obj}\n");
+  scene.tissues[0].patch.reset();
+  auto neither = make_tissue(scene, 0);
+  ASSERT_FALSE(neither.ok());
+  EXPECT_EQ(neither.error().message, "t.yaml:2: tissue 'skin': expected exactly one of 'patch' and 'mesh'");
+  SceneDef missing = scene;
+  missing.tissues[0].name = "organ";
+  missing.tissues[0].mesh = MeshRef{};
+  missing.tissues[0].mesh->file = "/nonexistent/no-such.obj";
   auto no_file = make_tissue(missing, 0);
   ASSERT_FALSE(no_file.ok());
   EXPECT_NE(no_file.error().message.find("tissue 'organ'"), std::string::npos) << no_file.error().message;
