@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <algorithm>
 #include <cstring>
+#include <string>
 #include <vector>
 
 using namespace palpate;
@@ -446,4 +448,40 @@ TEST(ChargedStep, RepulsionAndAttractionLawsAreContinuous) {
   EXPECT_EQ(charged_attraction(kqq, 0, R), 0.0);
   EXPECT_NEAR(charged_attraction(kqq, 0.5 * R * (1 - 1e-9), R), charged_attraction(kqq, 0.5 * R, R), 1e-6);
   EXPECT_NEAR(charged_attraction(kqq, 0.25 * R, R), 0.5 * charged_attraction(kqq, 0.5 * R, R), 1e-9);
+}
+
+TEST(ChargedStep, AHoleStaysOpenOrClosesAsTheMaterialSays) {
+  for (bool closes : {false, true}) {
+    ChargedMaterialDef mat;
+    mat.hole_closes = closes;
+    ChargedModel m = flat(0.03, 0.001, mat);
+    ChargedState s = make_charged_state(m);
+    const Vec3 at = m.origin(size_t(central_particle(m)));
+    ChargedHip needle;
+    needle.shaft_length = 0.05;
+    std::vector<std::string> kinds;
+    double second_peak = 0;
+    auto move = [&](double y, bool second) {
+      needle.position = Vec3(at.x(), y, at.z());
+      const Vec3 f = step(m, s, needle, kDt);
+      if (second) second_peak = std::max(second_peak, f.y());
+      TissueEvent ev[4];
+      for (size_t k = drain_events(s, ev), j = 0; j < k; ++j) kinds.push_back(ev[j].kind);
+    };
+    for (double y = 0.005; y > -0.006; y -= 4e-6) move(y, false);   // in and through
+    for (double y = -0.006; y < 0.010; y += 4e-6) move(y, false);   // all the way out
+    for (int k = 0; k < 500; ++k) move(0.010, false);                // the patch relaxes
+    for (double y = 0.005; y > -0.006; y -= 4e-6) move(y, true);    // the same track again
+    ASSERT_GE(kinds.size(), 2u);
+    EXPECT_EQ(kinds[0], "puncture");
+    EXPECT_EQ(kinds[1], "exit");
+    const long punctures = std::count(kinds.begin(), kinds.end(), std::string("puncture"));
+    if (closes) {
+      EXPECT_EQ(punctures, 2) << "a closed hole must be punctured again";
+      EXPECT_GE(second_peak, mat.puncture_force);
+    } else {
+      EXPECT_EQ(punctures, 1) << "an open hole lets the needle through";
+      EXPECT_LT(second_peak, 0.2 * mat.puncture_force);
+    }
+  }
 }
