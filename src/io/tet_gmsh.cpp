@@ -7,10 +7,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
 #include <cmath>
 #include <exception>
 #include <fstream>
 #include <mutex>
+#include <new>
 #include <numeric>
 #include <unordered_map>
 #include <vector>
@@ -30,8 +34,10 @@ std::mutex& gmsh_mutex() {
 
 // Called with the lock held. Initialises Gmsh once, silent, and with errors logged rather than
 // thrown: an exception thrown from inside Gmsh's readers leaves it "busy" for every later call.
+bool gmsh_initialised = false;  // guarded by gmsh_mutex()
+
 void ensure_gmsh() {
-  static bool initialised = false;
+  bool& initialised = gmsh_initialised;
   if (initialised) return;
   gmsh::initialize(0, nullptr, false);
   gmsh::option::setNumber("General.Terminal", 0);
@@ -44,10 +50,14 @@ void ensure_gmsh() {
 template <class Work>
 std::string run_gmsh(Work&& work) {
   std::string failure;
+  bool thrown = true;
   gmsh::logger::start();
   try {
     gmsh::clear();
     work();
+    thrown = false;
+  } catch (const std::bad_alloc&) {
+    failure = "out of memory (does the file promise more nodes or elements than it holds?)";
   } catch (const std::exception& e) {
     failure = e.what();
   } catch (const std::string& s) {
@@ -64,8 +74,15 @@ std::string run_gmsh(Work&& work) {
       if (!errors.empty()) errors += "; ";
       errors += line.substr(7);
     }
-  if (errors.empty()) errors = failure;
-  gmsh::clear();  // leave no model behind holding memory
+  if (!failure.empty()) errors += (errors.empty() ? "" : "; ") + failure;
+  if (thrown) {
+    // An exception out of Gmsh's reader leaves it marked busy ("I'm busy! Ask me that later")
+    // for every later call: only finalising and initialising again clears that.
+    gmsh::finalize();
+    gmsh_initialised = false;
+  } else {
+    gmsh::clear();  // leave no model behind holding memory
+  }
   return errors;
 }
 
@@ -128,11 +145,76 @@ Status check_msh_header(const std::filesystem::path& file) {
                            file.string(), shown)};
 }
 
+// Gmsh sizes memory by the counts and tag ranges a file promises, before reading what follows:
+// a damaged file promising billions of nodes (or a node tag of 10^12 in format 4) would have it
+// allocate terabytes or crash. Check those promises against the file's size first.
+Status check_msh_counts(const std::filesystem::path& file) {
+  Result<std::string> text = read_whole_file(file);
+  if (!text) return text.error();
+  const std::string& t = *text;
+  const size_t bytes = t.size();
+  const std::string name = file.string();
+  // Version and binary flag from "$MeshFormat\n<version> <file-type> <data-size>".
+  double version = 1.0;
+  int binary = 0;
+  if (const size_t at = t.find("$MeshFormat"); at != std::string::npos)
+    if (std::sscanf(t.c_str() + at + 11, "%lf %d", &version, &binary) < 1) version = 0;
+  // Generous bounds: a node or element takes at least 4 bytes of text, and tags may be sparse,
+  // but not by more than a factor 64 of the file's size.
+  const double max_count = static_cast<double>(bytes) / 4.0 + 16;
+  const double max_tag = std::max(1e6, 64.0 * static_cast<double>(bytes));
+  int line = 1;
+  size_t pos = 0;
+  while (pos < bytes) {
+    size_t end = t.find('\n', pos);
+    if (end == std::string::npos) end = bytes;
+    std::string_view header(t.data() + pos, end - pos);
+    while (!header.empty() && (header.back() == '\r' || header.back() == ' ')) header.remove_suffix(1);
+    const bool nodes = header == "$Nodes" || header == "$NOD" || header == "$NOE";
+    const bool elements = header == "$Elements" || header == "$ELM";
+    if ((nodes || elements) && end < bytes) {
+      double v[4] = {0, 0, 0, 0};
+      int n = 0;
+      if (version >= 4 && binary) {
+        // Four size_t after the section line: blocks, count, min tag, max tag.
+        if (end + 1 + 32 <= bytes) {
+          for (int k = 0; k < 4; ++k) {
+            std::uint64_t x = 0;
+            std::memcpy(&x, t.data() + end + 1 + 8 * k, 8);
+            v[k] = static_cast<double>(x);
+          }
+          n = 4;
+        }
+      } else {
+        n = std::sscanf(t.c_str() + end + 1, "%lf %lf %lf %lf", &v[0], &v[1], &v[2], &v[3]);
+      }
+      const double count = version >= 4 ? v[1] : v[0];
+      if (n >= 1 && (count < 0 || count > max_count))
+        return Error{fmt::format("{}:{}: {} promises {:.0f} {}, more than the file can hold", name, line + 1, header,
+                                 count, nodes ? "nodes" : "elements")};
+      if (version >= 4 && n == 4 && (v[3] > max_tag || v[2] < 0))
+        return Error{fmt::format("{}:{}: {} tags run up to {:.0f}, far beyond the file's size (expected at most {:.0f})",
+                                 name, line + 1, header, v[3], max_tag)};
+    }
+    pos = end + 1;
+    ++line;
+    if (binary && version >= 4 && pos < bytes && t[pos] != '$') {
+      // Binary data: jump to the next line that opens a section.
+      const size_t next = t.find("\n$", pos);
+      if (next == std::string::npos) break;
+      line += static_cast<int>(std::count(t.begin() + static_cast<std::ptrdiff_t>(pos), t.begin() + static_cast<std::ptrdiff_t>(next) + 1, '\n'));
+      pos = next + 1;
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 Result<TetMesh> read_gmsh(const std::filesystem::path& file) {
   const std::string where = file.string();
   if (Status s = check_msh_header(file); !s) return s.error();
+  if (Status s = check_msh_counts(file); !s) return s.error();
   std::lock_guard lock(gmsh_mutex());
   ensure_gmsh();
   Result<TetMesh> mesh = Error{""};
