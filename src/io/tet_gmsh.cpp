@@ -1,12 +1,14 @@
 // tet_gmsh.cpp — everything that touches Gmsh: reading .msh files (v1, v2, v4) and filling a
 // closed surface with tetrahedra. The only file of palpate that includes gmsh.h.
 #include "io/mesh_io.h"
+#include "io/text_lines.h"
 
 #include <gmsh.h>
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -145,6 +147,67 @@ Status check_msh_header(const std::filesystem::path& file) {
                            file.string(), shown)};
 }
 
+// Gmsh 4.8's ASCII format-4 reader trusts each section's totals and writes past its arrays when
+// the blocks hold more than the total promised (found by fuzzing: a one-digit change crashes
+// it). Check that the blocks of $Nodes and $Elements add up to their totals and that tags lie
+// in the promised range. `body` starts on the line after the section's name, which is `line`.
+Status check_msh4_block_sums(std::string_view body, bool nodes, int line, const std::string& name) {
+  TokenReader in(body, '\0');
+  const auto error = [&](const std::string& what) {
+    return Error{fmt::format("{}:{}: {}: {}", name, line + in.line(), nodes ? "$Nodes" : "$Elements", what)};
+  };
+  const auto number = [&](long long& v, const char* what) -> Status {
+    std::string_view t;
+    if (!in.next(t)) return error(fmt::format("unexpected end of file, expected {}", what));
+    if (!parse_int(t, v)) return error(fmt::format("expected {} (an integer), found '{}'", what, printable(t)));
+    return {};
+  };
+  long long blocks = 0, total = 0, min_tag = 0, max_tag = 0;
+  for (auto [v, what] : {std::pair{&blocks, "the number of blocks"}, {&total, "the total count"},
+                         {&min_tag, "the smallest tag"}, {&max_tag, "the largest tag"}})
+    if (Status s = number(*v, what); !s) return s;
+  if (blocks < 0 || total < 0 || min_tag < 0 || max_tag < min_tag || blocks > total + 1)
+    return error(fmt::format("inconsistent header '{} {} {} {}'", blocks, total, min_tag, max_tag));
+  long long sum = 0;
+  for (long long b = 0; b < blocks; ++b) {
+    long long dim = 0, entity = 0, kind = 0, count = 0;
+    for (auto [v, what] : {std::pair{&dim, "an entity dimension"}, {&entity, "an entity tag"},
+                           {&kind, nodes ? "the parametric flag" : "an element type"}, {&count, "a block size"}})
+      if (Status s = number(*v, what); !s) return s;
+    sum += count;
+    if (dim < 0 || dim > 3 || count < 0 || sum > total)
+      return error(fmt::format("block {} ('{} {} {} {}') does not fit the header's total of {}", b, dim, entity, kind,
+                               count, total));
+    if (nodes) {
+      if (kind != 0 && kind != 1) return error(fmt::format("block {}: expected parametric flag 0 or 1, found {}", b, kind));
+      // Tags first, then coordinates: 3 each, plus `dim` parametric ones when flagged.
+      for (long long i = 0; i < count; ++i) {
+        long long tag = 0;
+        if (Status s = number(tag, "a node tag"); !s) return s;
+        if (tag < min_tag || tag > max_tag)
+          return error(fmt::format("node tag {} outside the header's range [{}, {}]", tag, min_tag, max_tag));
+      }
+      const long long values = count * (3 + (kind ? dim : 0));
+      for (long long i = 0; i < values; ++i) {
+        std::string_view t;
+        double x = 0;
+        if (!in.next(t) || !parse_double(t, x)) return error("expected a node coordinate");
+      }
+    } else {
+      // Each element: its tag, then its nodes; skip to the next line (node counts depend on the type).
+      for (long long i = 0; i < count; ++i) {
+        long long tag = 0;
+        if (Status s = number(tag, "an element tag"); !s) return s;
+        if (tag < min_tag || tag > max_tag)
+          return error(fmt::format("element tag {} outside the header's range [{}, {}]", tag, min_tag, max_tag));
+        in.rest_of_line();
+      }
+    }
+  }
+  if (sum != total) return error(fmt::format("the blocks hold {}, the header promises {}", sum, total));
+  return {};
+}
+
 // Gmsh sizes memory by the counts and tag ranges a file promises, before reading what follows:
 // a damaged file promising billions of nodes (or a node tag of 10^12 in format 4) would have it
 // allocate terabytes or crash. Check those promises against the file's size first.
@@ -170,6 +233,13 @@ Status check_msh_counts(const std::filesystem::path& file) {
     if (end == std::string::npos) end = bytes;
     std::string_view header(t.data() + pos, end - pos);
     while (!header.empty() && (header.back() == '\r' || header.back() == ' ')) header.remove_suffix(1);
+    if (!header.empty() && header.front() == '$' && !(binary && version >= 4)) {
+      // In a text mesh file a line opening with '$' is a section name and nothing else.
+      for (char c : header.substr(1))
+        if (!std::isalpha(static_cast<unsigned char>(c)))
+          return Error{fmt::format("{}:{}: expected a section name such as $Nodes, found '{}'", name, line,
+                                   printable(header))};
+    }
     const bool nodes = header == "$Nodes" || header == "$NOD" || header == "$NOE";
     const bool elements = header == "$Elements" || header == "$ELM";
     if ((nodes || elements) && end < bytes) {
@@ -195,6 +265,8 @@ Status check_msh_counts(const std::filesystem::path& file) {
       if (version >= 4 && n == 4 && (v[3] > max_tag || v[2] < 0))
         return Error{fmt::format("{}:{}: {} tags run up to {:.0f}, far beyond the file's size (expected at most {:.0f})",
                                  name, line + 1, header, v[3], max_tag)};
+      if (version >= 4 && !binary)
+        if (Status s = check_msh4_block_sums(std::string_view(t).substr(end + 1), nodes, line, name); !s) return s;
     }
     pos = end + 1;
     ++line;
