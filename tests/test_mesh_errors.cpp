@@ -247,6 +247,40 @@ TEST(MeshErrors, WrongHeader) {
   EXPECT_EQ(palpate::load_surface(off).error().message, off.string() + ":1: expected the OFF header line 'OFF'");
 }
 
+// Damaged Gmsh files that crashed Gmsh 4.8 itself (found by fuzzing) are refused before it reads them.
+TEST(MeshErrors, GmshFilesThatWouldCrashGmsh) {
+  ScratchDir dir;
+  const std::string v4 = palpate::test::read_text(palpate::test::test_mesh("cube_v4.msh"));
+  const auto replaced = [&](const std::string& name, const std::string& from, const std::string& to) {
+    std::string text = v4;
+    text.replace(text.find(from), from.size(), to);
+    return dir.write(name, text);
+  };
+  // The $Nodes header promises 1 node, its blocks hold 8 (Gmsh wrote past its array).
+  const auto total = replaced("total.msh", "$Nodes\n2 8 1 8", "$Nodes\n2 1 1 8");
+  EXPECT_EQ(palpate::load_tet(total).error().message,
+            total.string() + ":11: $Nodes: block 0 ('2 1 0 4') does not fit the header's total of 1");
+  // A section name run together with the next line (Gmsh segfaulted).
+  const auto joined = replaced("joined.msh", "$Nodes\n2 8 1 8", "$Nodes02 8 1 8");
+  EXPECT_EQ(palpate::load_tet(joined).error().message,
+            joined.string() + ":9: expected a section name such as $Nodes, found '$Nodes02 8 1 8'");
+  // Tags up to 10^12 (Gmsh sizes a dense array by the largest tag).
+  const auto tags = replaced("tags.msh", "$Nodes\n2 8 1 8", "$Nodes\n2 8 1 1000000000000");
+  EXPECT_EQ(palpate::load_tet(tags).error().message,
+            tags.string() + ":10: $Nodes tags run up to 1000000000000, far beyond the file's size (expected at most "
+                            "1000000)");
+  const auto many = replaced("many.msh", "$Elements\n2 7 1 7", "$Elements\n2 7000000000 1 7");
+  EXPECT_EQ(palpate::load_tet(many).error().message,
+            many.string() + ":31: $Elements promises 7000000000 elements, more than the file can hold");
+  // Binary: one byte cut out of the nodes shifts every later field.
+  std::string bin = palpate::test::read_text(palpate::test::test_mesh("cube_v4_binary.msh"));
+  bin.erase(bin.find("$Nodes") + 60, 1);
+  const auto cut = dir.write("cut.msh", bin);
+  expect_error(palpate::load_tet(cut), cut, {"$Nodes (binary"});
+  // Gmsh still reads good files after all of these.
+  EXPECT_TRUE(palpate::load_tet(palpate::test::test_mesh("cube_v4.msh")).ok());
+}
+
 // Random bytes, and valid files with random bytes overwritten, under every extension: each
 // either loads and validates or fails with a message that starts with the file name. Never a crash.
 TEST(MeshErrors, GarbageNeverCrashes) {

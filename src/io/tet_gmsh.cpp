@@ -208,6 +208,67 @@ Status check_msh4_block_sums(std::string_view body, bool nodes, int line, const 
   return {};
 }
 
+// The same check for binary format 4 (little-endian, 8-byte size_t, 4-byte int), where each
+// element's node count comes from its type: types Gmsh 4.8 writes for meshes of order ≤ 2.
+Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line, const std::string& name) {
+  size_t at = 0;
+  bool short_read = false;
+  const auto u64 = [&]() -> std::uint64_t {
+    std::uint64_t v = 0;
+    if (at + 8 > body.size()) short_read = true;
+    else std::memcpy(&v, body.data() + at, 8);
+    at += 8;
+    return v;
+  };
+  const auto i32 = [&]() -> std::int32_t {
+    std::int32_t v = 0;
+    if (at + 4 > body.size()) short_read = true;
+    else std::memcpy(&v, body.data() + at, 4);
+    at += 4;
+    return v;
+  };
+  const auto error = [&](const std::string& what) {
+    return Error{fmt::format("{}:{}: {} (binary, byte {} of the section): {}", name, line, nodes ? "$Nodes" : "$Elements",
+                             at, what)};
+  };
+  const std::uint64_t blocks = u64(), total = u64(), min_tag = u64(), max_tag = u64();
+  if (short_read) return error("unexpected end of file in the section header");
+  if (max_tag < min_tag || blocks > total + 1) return error("inconsistent section header");
+  std::uint64_t sum = 0;
+  for (std::uint64_t b = 0; b < blocks; ++b) {
+    const std::int32_t dim = i32(), entity = i32(), kind = i32();
+    const std::uint64_t count = u64();
+    if (short_read) return error(fmt::format("unexpected end of file in block {}", b));
+    sum += count;
+    if (dim < 0 || dim > 3 || count > total || sum > total)
+      return error(fmt::format("block {} (entity {} of dimension {}, {} items) does not fit the header's total of {}", b,
+                               entity, dim, count, total));
+    if (nodes) {
+      if (kind != 0 && kind != 1) return error(fmt::format("block {}: expected parametric flag 0 or 1, found {}", b, kind));
+      for (std::uint64_t i = 0; i < count; ++i) {
+        const std::uint64_t tag = u64();
+        if (short_read) return error("unexpected end of file in the node tags");
+        if (tag < min_tag || tag > max_tag)
+          return error(fmt::format("node tag {} outside the header's range [{}, {}]", tag, min_tag, max_tag));
+      }
+      at += count * 8 * static_cast<std::uint64_t>(3 + (kind ? dim : 0));
+    } else {
+      static constexpr int kNodesOfType[] = {0, 2, 3, 4, 4, 8, 6, 5, 3, 6, 9, 10, 27, 18, 14, 1};
+      if (kind < 1 || kind > 15) return error(fmt::format("block {}: element type {} is not read", b, kind));
+      for (std::uint64_t i = 0; i < count; ++i) {
+        const std::uint64_t tag = u64();
+        if (short_read) return error("unexpected end of file in the elements");
+        if (tag < min_tag || tag > max_tag)
+          return error(fmt::format("element tag {} outside the header's range [{}, {}]", tag, min_tag, max_tag));
+        at += 8 * static_cast<size_t>(kNodesOfType[kind]);
+      }
+    }
+    if (at > body.size()) return error(fmt::format("unexpected end of file in block {}", b));
+  }
+  if (sum != total) return error(fmt::format("the blocks hold {}, the header promises {}", sum, total));
+  return {};
+}
+
 // Gmsh sizes memory by the counts and tag ranges a file promises, before reading what follows:
 // a damaged file promising billions of nodes (or a node tag of 10^12 in format 4) would have it
 // allocate terabytes or crash. Check those promises against the file's size first.
@@ -219,9 +280,11 @@ Status check_msh_counts(const std::filesystem::path& file) {
   const std::string name = file.string();
   // Version and binary flag from "$MeshFormat\n<version> <file-type> <data-size>".
   double version = 1.0;
-  int binary = 0;
+  int binary = 0, data_size = 8;
   if (const size_t at = t.find("$MeshFormat"); at != std::string::npos)
-    if (std::sscanf(t.c_str() + at + 11, "%lf %d", &version, &binary) < 1) version = 0;
+    if (std::sscanf(t.c_str() + at + 11, "%lf %d %d", &version, &binary, &data_size) < 1) version = 0;
+  if (binary && version >= 4 && data_size != 8)
+    return Error{fmt::format("{}: binary mesh with {}-byte sizes; expected 8", name, data_size)};
   // Generous bounds: a node or element takes at least 4 bytes of text, and tags may be sparse,
   // but not by more than a factor 64 of the file's size.
   const double max_count = static_cast<double>(bytes) / 4.0 + 16;
@@ -265,8 +328,13 @@ Status check_msh_counts(const std::filesystem::path& file) {
       if (version >= 4 && n == 4 && (v[3] > max_tag || v[2] < 0))
         return Error{fmt::format("{}:{}: {} tags run up to {:.0f}, far beyond the file's size (expected at most {:.0f})",
                                  name, line + 1, header, v[3], max_tag)};
-      if (version >= 4 && !binary)
-        if (Status s = check_msh4_block_sums(std::string_view(t).substr(end + 1), nodes, line, name); !s) return s;
+      if (version >= 4) {
+        const std::string_view body = std::string_view(t).substr(end + 1);
+        if (Status s = binary ? check_msh4_binary_block_sums(body, nodes, line, name)
+                              : check_msh4_block_sums(body, nodes, line, name);
+            !s)
+          return s;
+      }
     }
     pos = end + 1;
     ++line;
