@@ -277,6 +277,11 @@ TEST(MeshErrors, GmshFilesThatWouldCrashGmsh) {
   bin.erase(bin.find("$Nodes") + 60, 1);
   const auto cut = dir.write("cut.msh", bin);
   expect_error(palpate::load_tet(cut), cut, {"$Nodes (binary"});
+  // Binary: an element's node tag far outside the nodes' range (Gmsh segfaulted).
+  std::string far = palpate::test::read_text(palpate::test::test_mesh("cube_v4_binary.msh"));
+  far[919] = '\xcb';  // high byte of the last element's last node tag
+  const auto far_node = dir.write("far.msh", far);
+  expect_error(palpate::load_tet(far_node), far_node, {"$Elements (binary", "outside the $Nodes range [1, 8]"});
   // Gmsh still reads good files after all of these.
   EXPECT_TRUE(palpate::load_tet(palpate::test::test_mesh("cube_v4.msh")).ok());
 }

@@ -210,7 +210,8 @@ Status check_msh4_block_sums(std::string_view body, bool nodes, int line, const 
 
 // The same check for binary format 4 (little-endian, 8-byte size_t, 4-byte int), where each
 // element's node count comes from its type: types Gmsh 4.8 writes for meshes of order ≤ 2.
-Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line, const std::string& name) {
+Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line, const std::string& name,
+                                    std::uint64_t node_min, std::uint64_t node_max) {
   size_t at = 0;
   bool short_read = false;
   const auto u64 = [&]() -> std::uint64_t {
@@ -260,7 +261,14 @@ Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line,
         if (short_read) return error("unexpected end of file in the elements");
         if (tag < min_tag || tag > max_tag)
           return error(fmt::format("element tag {} outside the header's range [{}, {}]", tag, min_tag, max_tag));
-        at += 8 * static_cast<size_t>(kNodesOfType[kind]);
+        // Gmsh's binary reader looks nodes up without a bounds check.
+        for (int k = 0; k < kNodesOfType[kind]; ++k) {
+          const std::uint64_t node = u64();
+          if (short_read) return error("unexpected end of file in the elements");
+          if (node < node_min || node > node_max)
+            return error(fmt::format("element {} has node {} outside the $Nodes range [{}, {}]", tag, node, node_min,
+                                     node_max));
+        }
       }
     }
     if (at > body.size()) return error(fmt::format("unexpected end of file in block {}", b));
@@ -289,6 +297,7 @@ Status check_msh_counts(const std::filesystem::path& file) {
   // but not by more than a factor 64 of the file's size.
   const double max_count = static_cast<double>(bytes) / 4.0 + 16;
   const double max_tag = std::max(1e6, 64.0 * static_cast<double>(bytes));
+  std::uint64_t node_min = 0, node_max = 0;  // tag range of $Nodes, for the elements' nodes
   int line = 1;
   size_t pos = 0;
   while (pos < bytes) {
@@ -330,7 +339,11 @@ Status check_msh_counts(const std::filesystem::path& file) {
                                  name, line + 1, header, v[3], max_tag)};
       if (version >= 4) {
         const std::string_view body = std::string_view(t).substr(end + 1);
-        if (Status s = binary ? check_msh4_binary_block_sums(body, nodes, line, name)
+        if (nodes && n == 4) {
+          node_min = static_cast<std::uint64_t>(v[2]);
+          node_max = static_cast<std::uint64_t>(v[3]);
+        }
+        if (Status s = binary ? check_msh4_binary_block_sums(body, nodes, line, name, node_min, node_max)
                               : check_msh4_block_sums(body, nodes, line, name);
             !s)
           return s;
