@@ -7,6 +7,10 @@
 #include <limits>
 #include <string>
 
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
 namespace palpate {
 namespace {
 
@@ -114,9 +118,34 @@ void fill_slots(const std::array<Combo, 4>& ctrl, int n, std::array<int, 4>& ind
     }
 }
 
-std::string scheme_name(SurfaceScheme s) { return s == SurfaceScheme::bezier ? "bezier" : "bspline"; }
+constexpr int kChunk = 64;  // samples per structure-of-arrays chunk of a row
 
-float length_squared(float x, float y, float z) { return x * x + y * y + z * z; }
+// inv[i] = ok[i] / sqrt(c2[i]) for i < n (0 where ok[i] is 0); returns how many ok[i] are 0.
+// Written with SSE where the target has it: std::sqrt's errno rule stops GCC vectorising it.
+int inverse_norms(const float* c2, const float* ok, float* inv, int n) noexcept {
+  int i = 0;
+  float bad = 0;
+#if defined(__SSE2__)
+  __m128 bad4 = _mm_setzero_ps();
+  const __m128 one = _mm_set1_ps(1.0f), smallest = _mm_set1_ps(std::numeric_limits<float>::min());
+  for (; i + 4 <= n; i += 4) {
+    const __m128 k = _mm_loadu_ps(ok + i);
+    const __m128 r = _mm_div_ps(k, _mm_sqrt_ps(_mm_max_ps(_mm_loadu_ps(c2 + i), smallest)));
+    _mm_storeu_ps(inv + i, r);
+    bad4 = _mm_add_ps(bad4, _mm_sub_ps(one, k));
+  }
+  alignas(16) float lanes[4];
+  _mm_store_ps(lanes, bad4);
+  bad = lanes[0] + lanes[1] + lanes[2] + lanes[3];
+#endif
+  for (; i < n; ++i) {
+    inv[i] = ok[i] != 0.0f ? 1.0f / std::sqrt(c2[i]) : 0.0f;
+    bad += 1.0f - ok[i];
+  }
+  return int(bad);
+}
+
+std::string scheme_name(SurfaceScheme s) { return s == SurfaceScheme::bezier ? "bezier" : "bspline"; }
 
 }  // namespace
 
@@ -223,7 +252,6 @@ bool SurfaceTessellator::tessellate(std::span<const Vec3f> control, std::span<fl
 // structure-of-arrays rows so the compiler vectorises over u.
 void SurfaceTessellator::tessellate_patch(std::span<const Vec3f> control, int i, int j, float* positions,
                                           float* normals) const noexcept {
-  constexpr int kMaxRow = kMaxResolution + 1;
   const int r1 = def_.resolution + 1;
   const std::array<int, 4>& ri = v_.index[i];
   const std::array<int, 4>& ci = u_.index[j];
@@ -244,9 +272,10 @@ void SurfaceTessellator::tessellate_patch(std::span<const Vec3f> control, int i,
   const float* wu = &u_.w[size_t(j) * 4 * r1];
   const float* dwu = &u_.dw[size_t(j) * 4 * r1];
 
-  // Rows of the current v sample, structure of arrays (stack scratch: no allocation).
-  alignas(32) float px[kMaxRow], py[kMaxRow], pz[kMaxRow];
-  alignas(32) float nx[kMaxRow], ny[kMaxRow], nz[kMaxRow];
+  // A row of samples at a time, in chunks of structure-of-arrays stack scratch (no allocation):
+  // plain loops the compiler vectorises, the square roots in scale_rows_by_inverse_norm.
+  alignas(16) float px[kChunk], py[kChunk], pz[kChunk], cx[kChunk], cy[kChunk], cz[kChunk], inv[kChunk];
+  alignas(16) float c2[kChunk], ok[kChunk];
   int degenerate = 0;
   for (int a = 0; a < r1; ++a) {
     float q[3][4], qv[3][4];
@@ -257,33 +286,44 @@ void SurfaceTessellator::tessellate_patch(std::span<const Vec3f> control, int i,
         qv[c][b] = dwv[0 * r1 + a] * g[c][0][b] + dwv[1 * r1 + a] * g[c][1][b] +
                    dwv[2 * r1 + a] * g[c][2][b] + dwv[3 * r1 + a] * g[c][3][b];
       }
-    for (int b = 0; b < r1; ++b) {
-      const float w0 = wu[b], w1 = wu[r1 + b], w2 = wu[2 * r1 + b], w3 = wu[3 * r1 + b];
-      const float d0 = dwu[b], d1 = dwu[r1 + b], d2 = dwu[2 * r1 + b], d3 = dwu[3 * r1 + b];
-      float s[3], su[3], sv[3];
-      for (int c = 0; c < 3; ++c) {
-        s[c] = w0 * q[c][0] + w1 * q[c][1] + w2 * q[c][2] + w3 * q[c][3];
-        su[c] = d0 * q[c][0] + d1 * q[c][1] + d2 * q[c][2] + d3 * q[c][3];
-        sv[c] = w0 * qv[c][0] + w1 * qv[c][1] + w2 * qv[c][2] + w3 * qv[c][3];
-      }
-      px[b] = s[0], py[b] = s[1], pz[b] = s[2];
-      const float cx = su[1] * sv[2] - su[2] * sv[1];
-      const float cy = su[2] * sv[0] - su[0] * sv[2];
-      const float cz = su[0] * sv[1] - su[1] * sv[0];
-      const float c2 = cx * cx + cy * cy + cz * cz;
-      // Degenerate when |du × dv| ≤ 1e-6 |du||dv| (parallel or vanishing derivatives).
-      const float scale2 = length_squared(su[0], su[1], su[2]) * length_squared(sv[0], sv[1], sv[2]);
-      const bool ok = c2 > 1e-12f * scale2 && length_squared(su[0], su[1], su[2]) > tiny2 &&
-                      length_squared(sv[0], sv[1], sv[2]) > tiny2;
-      const float inv = ok ? 1.0f / std::sqrt(c2) : 0.0f;
-      nx[b] = cx * inv, ny[b] = cy * inv, nz[b] = cz * inv;
-      degenerate += ok ? 0 : 1;
-    }
     float* pr = positions + size_t(a) * r1 * 3;
     float* nr = normals + size_t(a) * r1 * 3;
-    for (int b = 0; b < r1; ++b) {
-      pr[3 * b] = px[b], pr[3 * b + 1] = py[b], pr[3 * b + 2] = pz[b];
-      nr[3 * b] = nx[b], nr[3 * b + 1] = ny[b], nr[3 * b + 2] = nz[b];
+    for (int b0 = 0; b0 < r1; b0 += kChunk) {
+      const int n = std::min(kChunk, r1 - b0);
+      const float* w0 = wu + b0;
+      const float* w1 = wu + r1 + b0;
+      const float* w2 = wu + 2 * r1 + b0;
+      const float* w3 = wu + 3 * r1 + b0;
+      const float* d0 = dwu + b0;
+      const float* d1 = dwu + r1 + b0;
+      const float* d2 = dwu + 2 * r1 + b0;
+      const float* d3 = dwu + 3 * r1 + b0;
+      for (int b = 0; b < n; ++b) {
+        px[b] = w0[b] * q[0][0] + w1[b] * q[0][1] + w2[b] * q[0][2] + w3[b] * q[0][3];
+        py[b] = w0[b] * q[1][0] + w1[b] * q[1][1] + w2[b] * q[1][2] + w3[b] * q[1][3];
+        pz[b] = w0[b] * q[2][0] + w1[b] * q[2][1] + w2[b] * q[2][2] + w3[b] * q[2][3];
+        const float sux = d0[b] * q[0][0] + d1[b] * q[0][1] + d2[b] * q[0][2] + d3[b] * q[0][3];
+        const float suy = d0[b] * q[1][0] + d1[b] * q[1][1] + d2[b] * q[1][2] + d3[b] * q[1][3];
+        const float suz = d0[b] * q[2][0] + d1[b] * q[2][1] + d2[b] * q[2][2] + d3[b] * q[2][3];
+        const float svx = w0[b] * qv[0][0] + w1[b] * qv[0][1] + w2[b] * qv[0][2] + w3[b] * qv[0][3];
+        const float svy = w0[b] * qv[1][0] + w1[b] * qv[1][1] + w2[b] * qv[1][2] + w3[b] * qv[1][3];
+        const float svz = w0[b] * qv[2][0] + w1[b] * qv[2][1] + w2[b] * qv[2][2] + w3[b] * qv[2][3];
+        cx[b] = suy * svz - suz * svy;
+        cy[b] = suz * svx - sux * svz;
+        cz[b] = sux * svy - suy * svx;
+        c2[b] = cx[b] * cx[b] + cy[b] * cy[b] + cz[b] * cz[b];
+        const float su2 = sux * sux + suy * suy + suz * suz;
+        const float sv2 = svx * svx + svy * svy + svz * svz;
+        // Degenerate when |du × dv| ≤ 1e-6 |du||dv| (parallel derivatives) or either is noise.
+        ok[b] = (c2[b] > 1e-12f * su2 * sv2) & (su2 > tiny2) & (sv2 > tiny2) ? 1.0f : 0.0f;
+      }
+      degenerate += inverse_norms(c2, ok, inv, n);
+      for (int b = 0; b < n; ++b) {
+        float* po = pr + 3 * (b0 + b);
+        float* no = nr + 3 * (b0 + b);
+        po[0] = px[b], po[1] = py[b], po[2] = pz[b];
+        no[0] = cx[b] * inv[b], no[1] = cy[b] * inv[b], no[2] = cz[b] * inv[b];
+      }
     }
   }
   if (degenerate == 0) return;
