@@ -313,3 +313,25 @@ TEST(SurfaceGrid, RejectsBadGridsWithClearErrors) {
   std::vector<float> p(3 * t.point_count()), n(3 * t.point_count() - 3);
   EXPECT_FALSE(t.tessellate(random_grid(4, 4, 1), p, n));
 }
+
+TEST(SurfaceGrid, FineResolutionsAgreeWithDirectEvaluation) {
+  // Rows longer than the kernel's 64-sample chunks, and the noexcept span entry point.
+  for (SurfaceScheme scheme : kSchemes) {
+    const int rows = 5, cols = 6, r = 100;
+    const auto grid = random_grid(rows, cols, 9);
+    const auto t = make(rows, cols, scheme, r);
+    std::vector<float> p(3 * t.point_count()), n(3 * t.point_count());
+    ASSERT_TRUE(t.tessellate(grid, p, n));
+    for (int i = 0; i < t.patch_rows(); ++i)
+      for (int j = 0; j < t.patch_cols(); ++j)
+        for (int a = 0; a <= r; a += 7)
+          for (int b = 0; b <= r; ++b) {
+            const size_t k = sample(t, i, j, a, b);
+            const auto sp = t.evaluate(grid, i, j, float(b) / r, float(a) / r);
+            EXPECT_LT((sp.position - Vec3f(p[3 * k], p[3 * k + 1], p[3 * k + 2])).norm(), 1e-5f)
+                << name(scheme) << " patch " << i << "," << j << " sample " << a << "," << b;
+            EXPECT_GT(sp.normal.dot(Vec3f(n[3 * k], n[3 * k + 1], n[3 * k + 2])), 0.9999f)
+                << name(scheme) << " patch " << i << "," << j << " sample " << a << "," << b;
+          }
+  }
+}
