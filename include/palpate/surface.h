@@ -54,7 +54,8 @@ struct SurfacePoint {
 // Tessellates a rows x cols row-major control grid (control point (r,c) at index r*cols + c) at a
 // fixed resolution per patch, independent of the particle count. Built once per grid size and
 // resolution (the basis values, index tables and triangles are precomputed); `tessellate` is
-// then allocation-free and can run every frame.
+// then allocation-free and can run every frame; it is const and keeps no scratch, so threads may
+// share one tessellator (each with its own output).
 //
 // Leftover rows/columns (Bézier with rows−1 or cols−1 not a multiple of 3): the last patch in
 // that direction takes the 2 or 3 remaining rows and is their line or quadratic Bézier curve,
