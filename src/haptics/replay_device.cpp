@@ -44,7 +44,8 @@ Result<std::vector<RecordedSample>> load_recording_csv(const std::filesystem::pa
   }
   if (trim(line).empty() || line[0] == '#')
     return Error{file.string() + ": recording is empty (expected a header t,tool_x,tool_y,tool_z,...)"};
-  const auto header = split_commas(line);
+  std::vector<std::string> header;  // owned: `line` is reused for the rows
+  for (std::string_view h : split_commas(line)) header.emplace_back(h);
   auto find = [&](std::string_view name) -> int {
     for (size_t i = 0; i < header.size(); ++i)
       if (trim(header[i]) == name) return int(i);
