@@ -5,7 +5,6 @@
 #include <palpate/core.h>
 #include <palpate/scene.h>
 
-#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <memory>

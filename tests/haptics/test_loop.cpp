@@ -1,6 +1,7 @@
 // test_loop.cpp — the haptic loop: adversarial devices stay within the safety rules, realtime runs
 // record every tick and report timing, the overrun watchdog zeroes force and the loop recovers.
 #include <palpate/haptics.h>
+#include <palpate/run.h>
 
 #include "haptics/doubles.h"
 
@@ -214,4 +215,35 @@ TEST(Loop, CreateRejectsBadSettings) {
   const palpate::Status st = (*r)->start();
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().message, "haptic loop: built for headless runs (settings.realtime = false)");
+}
+
+TEST(Loop, RunSceneRealtimeWritesTimingToSummary) {
+  // `palpate run --realtime`: the same outputs as a headless run, plus the period statistics.
+  palpate::SceneDef s;
+  s.name = "realtime";
+  s.duration = 0.3;
+  s.device.waypoints = {{0.0, Vec3(0, 0.002, 0)}, {0.3, Vec3(0, -0.002, 0)}};
+  palpate::RunOptions o;
+  o.out = fs::temp_directory_path() / "palpate_test_run_realtime";
+  o.realtime = true;
+  o.realtime_priority = false;
+  o.plots = false;
+  std::vector<std::unique_ptr<palpate::Tissue>> tissues;
+  tissues.push_back(std::make_unique<LinearFloor>(500.0));
+  auto r = palpate::run_scene(s, std::move(tissues), o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_TRUE(r->realtime);
+  EXPECT_EQ(r->ticks, 300u);
+  EXPECT_EQ(r->recorder_dropped, 0u);
+  EXPECT_GT(r->period.median, 0.0);
+  const auto rows = read_rows(o.out / "run.csv");
+  ASSERT_EQ(rows.size(), 300u);
+  for (size_t k = 0; k < rows.size(); ++k) ASSERT_EQ(rows[k].tick, long(k));
+  std::ifstream in(o.out / "summary.json");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string j = ss.str();
+  for (const char* key : {"\"period_s\"", "\"deadline_misses\"", "\"realtime\": true", "\"overrun\"",
+                          "\"stalled\"", "\"recorder_dropped\": 0"})
+    EXPECT_NE(j.find(key), std::string::npos) << key << " in " << j;
 }
