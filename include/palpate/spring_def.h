@@ -16,7 +16,13 @@ struct SpringMaterialDef {
   double mass = 0.1;               // kg, total; ignored when density > 0
   double density = 0.0;            // kg/m³; > 0 lumps mass from volume
   bool gravity = true;             // 9.8 m/s² along −y
+  double gravity_acceleration = 9.8;  // m/s², magnitude of gravity along −y
+  bool angular_momentum_correction = true;  // the predictor's post-step correction (DS99)
+  double contact_stiffness = 500.0;  // N/m per vertex inside the probe
+  double grasp_radius = 0.002;       // m beyond the tool's radius that grasping reaches
+  double grasp_stiffness = 200.0;    // N/m per grasped vertex
   std::string predictor = "";      // predictor file; "" = next to the output
+  std::string predictor_policy = "load_or_compute";  // load_or_compute | require_file
 };
 
 std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*);

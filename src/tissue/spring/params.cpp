@@ -15,8 +15,17 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
       {"point_damping", &D::point_damping, 0.0, 1e6, "N·s/m", "the paper's −γẋ on every mass"},
       {"mass", &D::mass, 1e-9, 1e6, "kg", "total mass, shared by the vertices"},
       {"density", &D::density, 0.0, 1e5, "kg/m³", "when > 0, vertex masses are lumped from volume"},
-      {"gravity", &D::gravity, 0, 1, "", "9.8 m/s² along −y"},
+      {"gravity", &D::gravity, 0, 1, "", "whether gravity acts (along −y)"},
+      {"gravity_acceleration", &D::gravity_acceleration, 0.0, 100.0, "m/s²", "magnitude of gravity"},
+      {"angular_momentum_correction", &D::angular_momentum_correction, 0, 1, "",
+       "the predictor's post-step correction that keeps a free body's angular momentum"},
+      {"contact_stiffness", &D::contact_stiffness, 0.0, 1e7, "N/m",
+       "penalty stiffness per vertex inside the probe (clamped for stability)"},
+      {"grasp_radius", &D::grasp_radius, 0.0, 1.0, "m", "reach of grasping beyond the tool's radius"},
+      {"grasp_stiffness", &D::grasp_stiffness, 0.0, 1e7, "N/m", "stiffness tying each grasped vertex to the tool"},
       {"predictor", &D::predictor, 0, 0, "", "predictor file written by `palpate precompute`"},
+      {"predictor_policy", &D::predictor_policy, 0, 0, "",
+       "on a missing or mismatched predictor file: recompute it, or stop", "load_or_compute|require_file"},
   };
   return table;
 }

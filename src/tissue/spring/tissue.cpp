@@ -1,8 +1,183 @@
-// tissue.cpp — the mass-spring-damper model wired as a scene tissue (being built: issue 5).
+// tissue.cpp — the mass-spring-damper model wired as a scene tissue: set-up from a TissueDef,
+// the Tissue interface (step, figures, events, snapshot, reset) over step() of spring.h.
+#include <palpate/spring.h>
+
 #include "tissue/factory.h"
+#include "tissue/spring/shapes.h"
+
+#include <array>
+#include <cmath>
 
 namespace palpate {
-Result<std::unique_ptr<Tissue>> make_spring_tissue(const SceneDef&, int) {
-  return Error{"the mass-spring model is not built yet"};
+
+namespace {
+
+std::string where_of(const SceneDef& scene, const TissueDef& t) {
+  return scene.file.string() + ":" + std::to_string(t.line) + ": tissue '" + t.name + "'";
 }
+
+void translate(RowMat3d& V, const Vec3& by) {
+  for (Eigen::Index i = 0; i < V.rows(); ++i) V.row(i) += by.transpose();
+}
+
+// Figures written as CSV columns, in this order.
+const std::string kFigureNames[] = {"force_N",          "force_x_N",        "force_y_N",      "force_z_N",
+                                    "max_displacement_m", "kinetic_energy_J", "anchor_force_N", "contacts",
+                                    "resets"};
+
+class SpringTissue final : public Tissue {
+ public:
+  SpringTissue(std::string name, int index, SpringModel model)
+      : name_(std::move(name)), index_(index), model_(std::move(model)), state_(make_state(model_)) {}
+
+  const std::string& name() const override { return name_; }
+
+  Vec3 step(const ToolState& tool, double dt) noexcept override {
+    // The predictor is built for one step length: a longer tick runs several steps.
+    const long substeps = std::max(1L, std::lround(dt / model_.options.dt));
+    Vec3 force = Vec3::Zero();
+    for (long k = 0; k < substeps; ++k) {
+      if (!palpate::step(model_, state_, &tool)) {
+        push_event({tool.time, "reset", index_, 0.0, 0.0});
+        return Vec3::Zero();
+      }
+      force = state_.tool_force;
+    }
+    return force;
+  }
+
+  std::span<const std::string> figure_names() const override { return kFigureNames; }
+
+  void figures(std::span<double> out) const noexcept override {
+    const double values[] = {state_.tool_force.norm(),
+                             state_.tool_force.x(),
+                             state_.tool_force.y(),
+                             state_.tool_force.z(),
+                             max_displacement(model_, state_),
+                             kinetic_energy(model_, state_),
+                             state_.anchor_force.norm(),
+                             static_cast<double>(state_.contacts),
+                             static_cast<double>(state_.resets)};
+    for (size_t i = 0; i < out.size() && i < std::size(values); ++i) out[i] = values[i];
+  }
+
+  size_t drain_events(std::span<TissueEvent> out) noexcept override {
+    size_t n = 0;
+    while (n < out.size() && count_ > 0) {
+      out[n++] = events_[head_];
+      head_ = (head_ + 1) % events_.size();
+      --count_;
+    }
+    return n;
+  }
+
+  void snapshot(TissueSnapshot& snap) const override {
+    const Eigen::Index n = state_.x.rows();
+    snap.points.resize(static_cast<size_t>(n));
+    for (Eigen::Index i = 0; i < n; ++i) snap.points[static_cast<size_t>(i)] = state_.x.row(i).transpose().cast<float>();
+    snap.rows_cols.clear();
+    snap.triangles = model_.network.triangles;
+    snap.links.assign(model_.network.springs.begin(), model_.network.springs.end());
+  }
+
+  void reset() noexcept override { palpate::reset(model_, state_); }
+
+  const SpringModel& model() const { return model_; }
+
+ private:
+  void push_event(const TissueEvent& e) noexcept {
+    if (count_ == events_.size()) {  // full: drop the oldest
+      head_ = (head_ + 1) % events_.size();
+      --count_;
+    }
+    events_[(head_ + count_) % events_.size()] = e;
+    ++count_;
+  }
+
+  std::string name_;
+  int index_;
+  SpringModel model_;
+  SpringState state_;
+  std::array<TissueEvent, 64> events_{};
+  size_t head_ = 0, count_ = 0;
+};
+
+}  // namespace
+
+Result<SpringNetwork> spring_network_from_file(const MeshRef& ref, const SpringNetworkOptions& o) {
+  const std::string where = ref.file.string();
+  if (is_tet_file(ref.file)) {
+    auto tet = load_tet(ref.file, ref.scale);
+    if (!tet) return tet.error();
+    translate(tet->V, ref.translate);
+    return make_spring_network(*tet, o, where);
+  }
+  SurfaceRequirements need;
+  need.closed = need.manifold = (o.topology == SpringTopology::tet_edges || o.density > 0 || o.youngs_modulus > 0);
+  auto surface = load_surface(ref.file, ref.scale, need);
+  if (!surface) return surface.error();
+  translate(surface->V, ref.translate);
+  if (o.topology == SpringTopology::tet_edges) {
+    auto tet = tetrahedralize(*surface);
+    if (!tet) return Error{where + ": filling the surface with tetrahedra failed: " + tet.error().message};
+    return make_spring_network(*tet, o, where + " (tetrahedralized)");
+  }
+  return make_spring_network(*surface, o, where);
+}
+
+Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
+  const TissueDef& t = scene.tissues.at(static_cast<size_t>(index));
+  const std::string where = where_of(scene, t);
+  const SpringMaterialDef& m = t.spring;
+  auto net_opt = network_options(m, t.anchors, where);
+  if (!net_opt) return net_opt.error();
+  auto solver = parse_solver(m.solver, where);
+  if (!solver) return solver.error();
+  SpringTissueSetup setup;
+  if (m.predictor_policy == "load_or_compute") setup.policy = PredictorPolicy::load_or_compute;
+  else if (m.predictor_policy == "require_file") setup.policy = PredictorPolicy::require_file;
+  else return Error{where + ": predictor_policy '" + m.predictor_policy + "' is not one of load_or_compute|require_file"};
+  Result<SpringNetwork> net = Error{where + ": needs a patch or a mesh"};
+  if (t.mesh) {
+    net = spring_network_from_file(*t.mesh, *net_opt);
+    if (!net) return Error{where + ": " + net.error().message};
+  } else if (t.patch) {
+    if (t.patch->shape != "flat")
+      return Error{where + ": a mass_spring patch must be flat (shape '" + t.patch->shape + "'); use a mesh for other shapes"};
+    net = make_spring_network(spring::make_sheet(*t.patch), *net_opt, where);
+    if (!net) return net.error();
+  } else {
+    return net.error();
+  }
+  setup.network = std::move(*net);
+  SpringModelOptions& o = setup.options;
+  o.dt = scene.dt;
+  o.solver = *solver;
+  o.point_damping = m.point_damping;
+  o.gravity = m.gravity;
+  o.gravity_acceleration = m.gravity_acceleration;
+  o.angular_momentum_correction = m.angular_momentum_correction;
+  o.contact_stiffness = m.contact_stiffness;
+  o.grasp_radius = m.grasp_radius;
+  o.grasp_stiffness = m.grasp_stiffness;
+  const std::filesystem::path base = scene.file.has_parent_path() ? scene.file.parent_path() : std::filesystem::path{};
+  if (!m.predictor.empty()) {
+    const std::filesystem::path p = m.predictor;
+    setup.predictor = p.is_absolute() ? p : base / p;
+  } else if (o.solver != SpringSolver::exact) {
+    const std::filesystem::path out = scene.output.is_absolute() ? scene.output : base / scene.output;
+    setup.predictor = out / (t.name.empty() ? "tissue" + std::to_string(index) + ".predictor" : t.name + ".predictor");
+  }
+  return setup;
+}
+
+Result<std::unique_ptr<Tissue>> make_spring_tissue(const SceneDef& scene, int index) {
+  auto setup = spring_setup(scene, index);
+  if (!setup) return setup.error();
+  const TissueDef& t = scene.tissues.at(static_cast<size_t>(index));
+  auto model = build_spring_model(std::move(setup->network), setup->options, setup->predictor, setup->policy);
+  if (!model) return Error{where_of(scene, t) + ": " + model.error().message};
+  return std::unique_ptr<Tissue>(std::make_unique<SpringTissue>(t.name, index, std::move(*model)));
+}
+
 }  // namespace palpate

@@ -1,0 +1,182 @@
+// bench_spring.cpp — cost of one mass-spring tick (DS99 predictor, dense and sparse), of
+// precomputing and loading a predictor, and of a baseline that re-factorises every tick.
+#include <palpate/spring.h>
+
+#include "tissue/spring/shapes.h"
+
+#include <Eigen/SparseCholesky>
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <map>
+#include <memory>
+
+namespace {
+
+using namespace palpate;
+
+SpringNetwork block(int n) {
+  SpringNetworkOptions o;
+  o.topology = SpringTopology::tet_edges;
+  o.stiffness = 100.0;
+  o.mass = 0.1;
+  for (int k = 0; k < n; ++k)
+    for (int i = 0; i < n; ++i) o.anchors.push_back(i + n * n * k);  // the y = 0 layer
+  return *make_spring_network(spring::make_block(n, n, n, 0.005), o, "block");
+}
+
+SpringNetwork organ(double radius_in_spacings) {
+  SpringNetworkOptions o;
+  o.topology = SpringTopology::tet_edges;
+  o.stiffness = 100.0;
+  o.mass = 0.5;
+  auto net = *make_spring_network(spring::make_tet_ball(radius_in_spacings * 0.002, 0.002), o, "organ");
+  // Anchor the bottom cap (the lowest 5% of the height).
+  const double lo = net.rest.col(1).minCoeff(), hi = net.rest.col(1).maxCoeff();
+  for (Eigen::Index i = 0; i < net.rest.rows(); ++i)
+    if (net.rest(i, 1) < lo + 0.05 * (hi - lo)) net.anchors.push_back(static_cast<int>(i));
+  return net;
+}
+
+SpringNetwork paper_organ() {
+  SpringNetworkOptions o;
+  o.topology = SpringTopology::all_pairs;
+  o.stiffness = 5.0;
+  o.mass = 0.2;
+  return *make_spring_network(spring::make_ball_surface(500, 0.04), o, "paper organ");
+}
+
+SpringModelOptions options(SpringSolver solver) {
+  SpringModelOptions o;
+  o.dt = 0.001;
+  o.solver = solver;
+  return o;
+}
+
+// Models are built once per process and shared by the benchmarks that tick them.
+const SpringModel& cached(const std::string& key) {
+  static std::map<std::string, std::unique_ptr<SpringModel>> models;
+  auto& m = models[key];
+  if (!m) {
+    SpringNetwork net;
+    SpringSolver solver = SpringSolver::sparse;
+    if (key == "paper") { net = paper_organ(); solver = SpringSolver::desbrun; }
+    else if (key == "block10_dense") { net = block(10); solver = SpringSolver::desbrun; }
+    else if (key == "block10") net = block(10);
+    else if (key == "block20") net = block(20);
+    else if (key == "organ10k") net = organ(13.4);
+    else if (key == "organ50k") net = organ(22.9);
+    m = std::make_unique<SpringModel>(*build_spring_model(std::move(net), options(solver)));
+  }
+  return *m;
+}
+
+void tick(benchmark::State& state, const std::string& key) {
+  const SpringModel& model = cached(key);
+  SpringState s = make_state(model);
+  ToolState tool;
+  tool.radius = 0.004;
+  const Vec3 top(model.network.rest.col(0).mean(), model.network.rest.col(1).maxCoeff(), model.network.rest.col(2).mean());
+  int i = 0;
+  for (auto _ : state) {
+    tool.tip = top + Vec3(0, 0.004 - 0.002 * ((i++ % 2000) / 2000.0), 0);  // pressing in and out
+    benchmark::DoNotOptimize(step(model, s, &tool));
+  }
+  const auto& p = model.predictor;
+  state.counters["vertices"] = static_cast<double>(model.network.size());
+  state.counters["springs"] = static_cast<double>(model.network.springs.size());
+  state.counters["predictor_MiB"] =
+      static_cast<double>(p.inverse.size() * 8 + p.value.size() * 12 + p.perm.size() * 16 + p.col_start.size() * 4) /
+      (1024.0 * 1024.0);
+}
+
+void BM_SpringTick_PaperAllPairs500(benchmark::State& s) { tick(s, "paper"); }
+void BM_SpringTick_Block10_Dense(benchmark::State& s) { tick(s, "block10_dense"); }
+void BM_SpringTick_Block10_Sparse(benchmark::State& s) { tick(s, "block10"); }
+void BM_SpringTick_Block20_Sparse(benchmark::State& s) { tick(s, "block20"); }
+void BM_SpringTick_Organ10k_Sparse(benchmark::State& s) { tick(s, "organ10k"); }
+void BM_SpringTick_Organ50k_Sparse(benchmark::State& s) { tick(s, "organ50k"); }
+BENCHMARK(BM_SpringTick_PaperAllPairs500)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block10_Dense)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block10_Sparse)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block20_Sparse)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Organ10k_Sparse)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Organ50k_Sparse)->Unit(benchmark::kMicrosecond);
+
+// Baseline: the same linear system assembled and solved with Eigen every tick
+// (SimplicialLDLT factorize + solve of M + h(γI + C_L) + h²K_L), forces as in step().
+void baseline(benchmark::State& state, const std::string& key) {
+  const SpringModel& model = cached(key);
+  const SpringNetwork& net = model.network;
+  const int n = static_cast<int>(net.size());
+  const double h = model.options.dt, gamma = model.options.point_damping;
+  SpringState s = make_state(model);
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  for (auto _ : state) {
+    std::vector<Eigen::Triplet<double>> t;
+    std::vector<double> diag(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i) diag[static_cast<size_t>(i)] = net.mass[static_cast<size_t>(i)] + h * gamma;
+    for (size_t e = 0; e < net.springs.size(); ++e) {
+      const auto [a, b] = net.springs[e];
+      const double w = h * net.damping[e] + h * h * net.stiffness[e];
+      diag[static_cast<size_t>(a)] += w;
+      diag[static_cast<size_t>(b)] += w;
+      if (model.anchored[static_cast<size_t>(a)] || model.anchored[static_cast<size_t>(b)]) continue;
+      t.emplace_back(a, b, -w);
+      t.emplace_back(b, a, -w);
+    }
+    for (int i = 0; i < n; ++i) t.emplace_back(i, i, model.anchored[static_cast<size_t>(i)] ? 1.0 : diag[static_cast<size_t>(i)]);
+    Eigen::SparseMatrix<double> A(n, n);
+    A.setFromTriplets(t.begin(), t.end());
+    ldlt.compute(A);
+    // The right-hand side of step(): forces and the −h K_L v term.
+    Eigen::MatrixXd b = Eigen::MatrixXd::Zero(n, 3);
+    for (size_t e = 0; e < net.springs.size(); ++e) {
+      const auto [i, j] = net.springs[e];
+      const Eigen::RowVector3d d = s.x.row(j) - s.x.row(i);
+      const double l = d.norm();
+      const Eigen::RowVector3d f = net.stiffness[e] * (l - net.rest_length[e]) / l * d;
+      b.row(i) += f;
+      b.row(j) -= f;
+    }
+    b.col(1).array() -= 9.8 * Eigen::Map<const Eigen::ArrayXd>(net.mass.data(), n);
+    b *= h;
+    for (int a : net.anchors) b.row(a).setZero();
+    const Eigen::MatrixXd dv = ldlt.solve(b);
+    s.v += dv;
+    s.x += h * s.v;
+    benchmark::DoNotOptimize(s.x.data());
+  }
+}
+void BM_SpringBaseline_Block10_RefactorEachTick(benchmark::State& s) { baseline(s, "block10"); }
+void BM_SpringBaseline_Block20_RefactorEachTick(benchmark::State& s) { baseline(s, "block20"); }
+void BM_SpringBaseline_Organ10k_RefactorEachTick(benchmark::State& s) { baseline(s, "organ10k"); }
+BENCHMARK(BM_SpringBaseline_Block10_RefactorEachTick)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringBaseline_Block20_RefactorEachTick)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringBaseline_Organ10k_RefactorEachTick)->Unit(benchmark::kMicrosecond);
+
+// Pre-processing the 10,000-vertex organ, then loading its predictor file.
+void BM_SpringPrecompute_Organ10k(benchmark::State& state) {
+  const SpringNetwork net = organ(13.4);
+  for (auto _ : state) {
+    auto p = build_predictor(net, options(SpringSolver::sparse));
+    benchmark::DoNotOptimize(p.ok());
+  }
+  state.counters["vertices"] = static_cast<double>(net.size());
+}
+BENCHMARK(BM_SpringPrecompute_Organ10k)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+void BM_SpringLoadPredictor_Organ10k(benchmark::State& state) {
+  const SpringModel& model = cached("organ10k");
+  const auto file = std::filesystem::temp_directory_path() / "palpate_bench_organ10k.predictor";
+  if (!save_predictor(file, model).ok()) state.SkipWithError("cannot write the predictor");
+  for (auto _ : state) {
+    auto p = load_predictor(file, model.network, model.options);
+    benchmark::DoNotOptimize(p.ok());
+  }
+  state.counters["file_MiB"] = static_cast<double>(std::filesystem::file_size(file)) / (1024.0 * 1024.0);
+  std::filesystem::remove(file);
+}
+BENCHMARK(BM_SpringLoadPredictor_Organ10k)->Unit(benchmark::kMillisecond);
+
+}  // namespace

@@ -1,0 +1,210 @@
+// palpate/spring.h — the mass-spring-damper organ model: networks from meshes, the precomputed
+// implicit predictor (Desbrun, Schröder & Barr 1999), its file, and the 1 kHz step.
+#pragma once
+
+#include <palpate/core.h>
+#include <palpate/mesh.h>
+#include <palpate/spring_def.h>
+#include <palpate/tissue.h>
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace palpate {
+
+// Which vertex pairs get a spring (DESIGN.md §2).
+enum class SpringTopology {
+  all_pairs,  // every vertex to every other: the seed paper's organs (small meshes only)
+  edges,      // the mesh's edges (a surface's triangle edges, or a tet mesh's edges)
+  tet_edges,  // a tetrahedral mesh's edges (a closed surface is filled with tetrahedra first)
+};
+
+// How the implicit backward-Euler step is solved.
+enum class SpringSolver {
+  desbrun,  // precomputed dense inverse of M + hD + h²K_const, plus the angular-momentum correction
+  sparse,   // precomputed sparse LDLᵀ of the same matrix (AMD ordering), solved per tick
+  exact,    // Newton on the full non-linear backward Euler, re-assembled each step (reference)
+};
+
+// What building a model does when its predictor file is missing or does not match.
+enum class PredictorPolicy {
+  load_or_compute,  // load the file when it matches; otherwise compute (and write it, if named)
+  require_file,     // load the file or fail with the reason it was refused
+};
+
+// A mass-spring-damper network: the constant part of an organ. n vertices, s springs.
+struct SpringNetwork {
+  RowMat3d rest;                              // (n x 3) rest positions, m
+  std::vector<double> mass;                   // (n) kg
+  std::vector<std::array<int, 2>> springs;    // (s) vertex pairs, i < j, no duplicates
+  std::vector<double> rest_length;            // (s) m
+  std::vector<double> stiffness;              // (s) N/m
+  std::vector<double> damping;                // (s) N·s/m, along the spring
+  std::vector<std::array<int, 3>> triangles;  // the drawn surface over the vertices (may be empty)
+  std::vector<int> anchors;                   // fixed vertices, sorted, unique
+  size_t size() const { return mass.size(); }
+};
+
+// How a network is made from a mesh.
+struct SpringNetworkOptions {
+  SpringTopology topology = SpringTopology::edges;
+  double stiffness = 100.0;      // N/m per spring; used when youngs_modulus == 0
+  double youngs_modulus = 0.0;   // Pa; > 0 derives stiffness (docs/models/mass-spring.md)
+  double spring_damping = 0.1;   // N·s/m per spring
+  double mass = 0.1;             // kg total, shared equally; used when density == 0
+  double density = 0.0;          // kg/m³; > 0 lumps each vertex's mass from the volume it carries
+  std::vector<int> anchors;      // fixed vertex indices
+};
+
+// Parse a material's strings (topology, solver, predictor_policy) into options; errors name `where`.
+Result<SpringNetworkOptions> network_options(const SpringMaterialDef& m, std::vector<int> anchors,
+                                             const std::string& where);
+Result<SpringSolver> parse_solver(const std::string& name, const std::string& where);
+
+// A network over a tetrahedral mesh: topology tet_edges/edges (its edges) or all_pairs; the drawn
+// triangles are its boundary. `where` names the source in messages.
+Result<SpringNetwork> make_spring_network(const TetMesh& mesh, const SpringNetworkOptions& options,
+                                          const std::string& where);
+// A network over a surface: topology edges or all_pairs (tet_edges needs tetrahedralize first).
+Result<SpringNetwork> make_spring_network(const SurfaceMesh& mesh, const SpringNetworkOptions& options,
+                                          const std::string& where);
+// Checks sizes, indices, positive masses and lengths, finite values; fills nothing.
+Status validate(const SpringNetwork& network, const std::string& where);
+
+struct SpringModelOptions {
+  double dt = 0.001;                           // s, the step the predictor is built for
+  SpringSolver solver = SpringSolver::desbrun;
+  double point_damping = 0.5;                  // N·s/m, the paper's −γẋ on each mass
+  bool gravity = true;
+  double gravity_acceleration = 9.8;           // m/s², along −y
+  bool angular_momentum_correction = true;     // the predictor's post-step correction
+  double contact_stiffness = 500.0;            // N/m per vertex inside the probe (clamped for stability)
+  double contact_damping = 0.05;               // N·s/m per vertex inside the probe, normal direction
+  double grasp_radius = 0.002;                 // m beyond the tool's radius that grasping reaches
+  double grasp_stiffness = 200.0;              // N/m per grasped vertex (clamped for stability)
+  int newton_iterations = 30;                  // exact solver: most Newton iterations per step
+  double newton_tolerance = 1e-10;             // exact solver: stop when |Δv| ≤ tol · (1 + |v|), m/s
+  double max_speed = 50.0;                     // m/s; faster means blow-up: the state is reset
+  size_t dense_limit = 4000;                   // most vertices the dense predictor accepts
+};
+
+// The precomputed predictor: A = M + h(γI + C_L) + h²K_L over the n vertices, where K_L and C_L are
+// the stiffness- and damping-weighted graph Laplacians (the constant, direction-free part of the
+// spring Jacobian, DS99 §4.2) and anchored rows/columns are replaced by the identity. One n x n
+// matrix serves the three coordinates.
+struct SpringPredictor {
+  SpringSolver kind = SpringSolver::exact;  // desbrun: dense inverse; sparse: LDLᵀ; exact: empty
+  int n = 0;
+  std::vector<double> inverse;   // desbrun: (n x n) row-major A⁻¹
+  std::vector<int> perm;         // sparse: (n) the fill-reducing ordering, new index of vertex i
+  std::vector<int> col_start;    // sparse: (n + 1) start of each column of L in row/value
+  std::vector<int> row;          // sparse: (nnz) row of each strictly-lower entry of L (permuted)
+  std::vector<double> value;     // sparse: (nnz) L's entries; L has a unit diagonal
+  std::vector<double> inv_diag;  // sparse: (n) 1 / D
+  bool empty() const { return inverse.empty() && value.empty() && inv_diag.empty(); }
+};
+
+// The constant part of a simulated organ, shared read-only by threads.
+struct SpringModel {
+  SpringNetwork network;
+  SpringModelOptions options;
+  SpringPredictor predictor;
+  std::vector<std::uint8_t> anchored;   // (n) 1 for a fixed vertex
+  std::vector<double> max_contact_stiffness;  // (n) N/m, (m_i + hγ)/h²: the stiffest explicit penalty
+                                              // on vertex i that stays stable, since A⁻¹ ≤ (M + hγ)⁻¹
+  std::vector<int> adjacency_start;     // (n + 1) CSR of springs per vertex
+  std::vector<int> adjacency;           // (2s) spring indices touching each vertex
+  double total_mass = 0;                // kg
+  bool all_pairs = false;               // springs are every pair (i < j) in order: the O(n²) kernel
+};
+
+// Progress of a long build in [0, 1]; called off any real-time path.
+using Progress = std::function<void(double fraction)>;
+
+// Build the predictor of `network` for `options` (the expensive, cacheable phase).
+Result<SpringPredictor> build_predictor(const SpringNetwork& network, const SpringModelOptions& options,
+                                        const Progress& progress = {});
+// Assemble a model. When `predictor` is given it is used as is (loaded from a file, already checked);
+// otherwise it is built.
+Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelOptions& options,
+                                       const Progress& progress = {});
+Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelOptions& options,
+                                       SpringPredictor predictor);
+
+// Everything that changes, plus the scratch the step needs (sized at make_state: no allocation later).
+struct SpringState {
+  RowMat3d x;       // (n x 3) positions, m
+  RowMat3d v;       // (n x 3) velocities, m/s
+  double time = 0;  // s
+  // Scratch, (n x 3) each.
+  RowMat3d force, rhs, dv, work;
+  std::vector<double> soa;  // (3n) positions as x…, y…, z… for the all-pairs kernel
+  // Grasping: vertices attached to the tool and their offsets from the tip when grabbed.
+  static constexpr int kMaxGrasped = 16;
+  std::array<int, kMaxGrasped> grasped{};
+  std::array<Vec3, kMaxGrasped> grasp_offset{};
+  int grasped_count = 0;
+  bool grasping = false;
+  // What the last step found.
+  Vec3 tool_force = Vec3::Zero();    // N, on the tool
+  Vec3 anchor_force = Vec3::Zero();  // N, exerted by the anchors on the organ
+  int contacts = 0;                  // vertices inside the probe
+  int newton_iterations = 0;         // exact solver: iterations of the last step
+  std::uint64_t resets = 0;          // blow-ups recovered
+};
+
+// A state at rest, with scratch sized for `model`.
+SpringState make_state(const SpringModel& model);
+// Back to rest (positions = rest, zero velocity, no grasp); keeps the scratch.
+void reset(const SpringModel& model, SpringState& state) noexcept;
+
+// One backward-Euler step of length model.options.dt with the tool (nullptr = no tool).
+// Returns false when the state blew up (non-finite or faster than max_speed): it was then reset
+// and the tool force is zero. noexcept, and for desbrun and sparse allocation-free; the exact
+// solver re-assembles and factorises a sparse matrix each Newton iteration (it allocates).
+bool step(const SpringModel& model, SpringState& state, const ToolState* tool) noexcept;
+
+// Figures of a state.
+double kinetic_energy(const SpringModel& model, const SpringState& state) noexcept;        // J
+double elastic_energy(const SpringModel& model, const SpringState& state) noexcept;        // J
+Vec3 linear_momentum(const SpringModel& model, const SpringState& state) noexcept;         // kg·m/s
+Vec3 angular_momentum(const SpringModel& model, const SpringState& state) noexcept;        // about 0
+double max_displacement(const SpringModel& model, const SpringState& state) noexcept;      // m
+
+// Predictor files (a versioned binary format, docs/models/mass-spring.md).
+// FNV-1a 64 of the network's rest positions and topology: the "mesh" a predictor was made for.
+std::uint64_t mesh_hash(const SpringNetwork& network);
+// Write the model's predictor with every parameter it depends on; atomically (temp + rename).
+Status save_predictor(const std::filesystem::path& file, const SpringModel& model);
+// Read a predictor made for exactly this network and these options; a truncated, corrupted,
+// other-mesh or other-parameter file is refused with a message saying which.
+Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const SpringNetwork& network,
+                                       const SpringModelOptions& options);
+
+// A model from a network with the predictor policy: load `file` when it matches, else compute it
+// (and write it when `file` is not empty), or fail under require_file. `note` (optional) is told
+// what happened ("loaded", or why it was recomputed).
+Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelOptions& options,
+                                       const std::filesystem::path& file, PredictorPolicy policy,
+                                       std::string* note = nullptr, const Progress& progress = {});
+
+// What a scene's mass_spring tissue asks for: its network (from TissueDef::mesh — a tet file, or a
+// surface, filled with tetrahedra by tetrahedralize() when the topology is tet_edges — or from
+// TissueDef::patch, a flat sheet), the model options (dt = the scene's tick), and the predictor file
+// (TissueDef::spring.predictor resolved against the scene's directory, or "<output>/<name>.predictor").
+struct SpringTissueSetup {
+  SpringNetwork network;
+  SpringModelOptions options;
+  std::filesystem::path predictor;
+  PredictorPolicy policy = PredictorPolicy::load_or_compute;
+};
+Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index);
+
+// A network from a mesh file (tetrahedral formats by extension, else a surface).
+Result<SpringNetwork> spring_network_from_file(const MeshRef& mesh, const SpringNetworkOptions& options);
+
+}  // namespace palpate

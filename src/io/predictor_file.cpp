@@ -1,0 +1,300 @@
+// predictor_file.cpp — the mass-spring predictor file: a versioned binary format with the mesh's
+// hash, every parameter the predictor depends on, and a checksum; written atomically.
+//
+// Layout (little-endian): header = magic "PALPPRED", u32 version, u32 reserved, u64 payload size,
+// u64 checksum of the payload. Payload = u64 mesh hash, u64 n, u64 s, u32 solver, u32 anchors,
+// f64 dt, f64 point_damping, f64 mass[n], i32 springs[2s], f64 stiffness[s], f64 damping[s],
+// i32 anchors[a], then desbrun: f64 inverse[n·n]; sparse: u64 nnz, i32 perm[n], i32 col_start[n+1],
+// i32 row[nnz], f64 value[nnz], f64 inv_diag[n].
+#include "io/predictor_file.h"
+
+#include <palpate/spring.h>
+
+#include <bit>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <system_error>
+#include <unistd.h>
+
+namespace palpate {
+
+namespace predictor_file {
+
+std::uint64_t checksum(const unsigned char* data, std::size_t size) noexcept {
+  static_assert(std::endian::native == std::endian::little, "predictor files are little-endian");
+  constexpr std::uint64_t kPrime = 0x100000001b3ULL;
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  std::size_t i = 0;
+  for (; i + 8 <= size; i += 8) {
+    std::uint64_t w;
+    std::memcpy(&w, data + i, 8);
+    h = (h ^ w) * kPrime;
+  }
+  for (; i < size; ++i) h = (h ^ data[i]) * kPrime;
+  return h;
+}
+
+}  // namespace predictor_file
+
+namespace {
+
+using predictor_file::kHeaderSize;
+
+struct Writer {
+  std::string buf;
+  template <class T>
+  void put(const T& v) {
+    buf.append(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  template <class T>
+  void put_array(const T* p, size_t count) {
+    buf.append(reinterpret_cast<const char*>(p), count * sizeof(T));
+  }
+};
+
+struct Reader {
+  const unsigned char* p;
+  size_t left;
+  template <class T>
+  bool get(T& v) {
+    if (left < sizeof(T)) return false;
+    std::memcpy(&v, p, sizeof(T));
+    p += sizeof(T);
+    left -= sizeof(T);
+    return true;
+  }
+  template <class T>
+  bool get_array(std::vector<T>& out, size_t count) {
+    if (count > left / sizeof(T)) return false;
+    out.resize(count);
+    std::memcpy(out.data(), p, count * sizeof(T));
+    p += count * sizeof(T);
+    left -= count * sizeof(T);
+    return true;
+  }
+};
+
+std::string num(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.17g", v);
+  return b;
+}
+
+const char* solver_name(std::uint32_t k) {
+  switch (k) {
+    case 0: return "desbrun";
+    case 1: return "sparse";
+    case 2: return "exact";
+    default: return "unknown";
+  }
+}
+
+std::uint32_t solver_code(SpringSolver s) {
+  return s == SpringSolver::desbrun ? 0u : s == SpringSolver::sparse ? 1u : 2u;
+}
+
+}  // namespace
+
+std::uint64_t mesh_hash(const SpringNetwork& net) {
+  Writer w;
+  w.put(static_cast<std::uint64_t>(net.rest.rows()));
+  for (Eigen::Index i = 0; i < net.rest.rows(); ++i)
+    for (int c = 0; c < 3; ++c) w.put(net.rest(i, c));
+  return predictor_file::checksum(reinterpret_cast<const unsigned char*>(w.buf.data()), w.buf.size());
+}
+
+Status save_predictor(const std::filesystem::path& file, const SpringModel& model) {
+  const SpringNetwork& net = model.network;
+  const SpringPredictor& p = model.predictor;
+  if (p.kind == SpringSolver::exact || p.empty())
+    return Error{file.string() + ": the exact solver has no predictor to save (use desbrun or sparse)"};
+  Writer w;
+  w.buf.reserve(kHeaderSize + 64 + net.size() * 8 + net.springs.size() * 24 + p.inverse.size() * 8 +
+                p.value.size() * 12 + net.size() * 16);
+  w.buf.append(kHeaderSize, '\0');
+  w.put(mesh_hash(net));
+  w.put(static_cast<std::uint64_t>(net.size()));
+  w.put(static_cast<std::uint64_t>(net.springs.size()));
+  w.put(solver_code(p.kind));
+  w.put(static_cast<std::uint32_t>(net.anchors.size()));
+  w.put(model.options.dt);
+  w.put(model.options.point_damping);
+  w.put_array(net.mass.data(), net.mass.size());
+  w.put_array(net.springs.data()->data(), 2 * net.springs.size());
+  w.put_array(net.stiffness.data(), net.stiffness.size());
+  w.put_array(net.damping.data(), net.damping.size());
+  w.put_array(net.anchors.data(), net.anchors.size());
+  if (p.kind == SpringSolver::desbrun) {
+    w.put_array(p.inverse.data(), p.inverse.size());
+  } else {
+    w.put(static_cast<std::uint64_t>(p.value.size()));
+    w.put_array(p.perm.data(), p.perm.size());
+    w.put_array(p.col_start.data(), p.col_start.size());
+    w.put_array(p.row.data(), p.row.size());
+    w.put_array(p.value.data(), p.value.size());
+    w.put_array(p.inv_diag.data(), p.inv_diag.size());
+  }
+  const std::uint64_t payload = w.buf.size() - kHeaderSize;
+  const std::uint64_t sum =
+      predictor_file::checksum(reinterpret_cast<const unsigned char*>(w.buf.data()) + kHeaderSize, payload);
+  std::memcpy(w.buf.data(), predictor_file::kMagic, 8);
+  std::memcpy(w.buf.data() + 8, &predictor_file::kVersion, 4);
+  std::memcpy(w.buf.data() + 16, &payload, 8);
+  std::memcpy(w.buf.data() + 24, &sum, 8);
+  // Atomically: a temporary file in the same directory, then rename over the target.
+  std::error_code ec;
+  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
+  std::filesystem::path tmp = file;
+  tmp += ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) return Error{file.string() + ": cannot write the predictor (cannot create " + tmp.string() + ")"};
+    out.write(w.buf.data(), static_cast<std::streamsize>(w.buf.size()));
+    out.flush();
+    if (!out) {
+      std::filesystem::remove(tmp, ec);
+      return Error{file.string() + ": cannot write the predictor (disk full?)"};
+    }
+  }
+  std::filesystem::rename(tmp, file, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    return Error{file.string() + ": cannot write the predictor: " + ec.message()};
+  }
+  return {};
+}
+
+Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const SpringNetwork& net,
+                                       const SpringModelOptions& options) {
+  const std::string where = file.string() + ": ";
+  std::ifstream in(file, std::ios::binary | std::ios::ate);
+  if (!in) return Error{where + "cannot open the predictor file"};
+  const std::streamoff size = in.tellg();
+  if (size < 0) return Error{where + "cannot read the predictor file"};
+  std::vector<unsigned char> data(static_cast<size_t>(size));
+  in.seekg(0);
+  in.read(reinterpret_cast<char*>(data.data()), size);
+  if (!in) return Error{where + "cannot read the predictor file"};
+  if (data.size() < 8 || std::memcmp(data.data(), predictor_file::kMagic, 8) != 0)
+    return Error{where + "not a palpate predictor file (bad magic)"};
+  if (data.size() < kHeaderSize)
+    return Error{where + "truncated: " + std::to_string(data.size()) + " bytes, shorter than the header"};
+  std::uint32_t version;
+  std::uint64_t payload, sum;
+  std::memcpy(&version, data.data() + 8, 4);
+  std::memcpy(&payload, data.data() + 16, 8);
+  std::memcpy(&sum, data.data() + 24, 8);
+  if (version != predictor_file::kVersion)
+    return Error{where + "predictor file version " + std::to_string(version) + ", this palpate reads version " +
+                 std::to_string(predictor_file::kVersion)};
+  if (data.size() - kHeaderSize < payload)
+    return Error{where + "truncated: " + std::to_string(data.size()) + " bytes, expected " +
+                 std::to_string(payload + kHeaderSize)};
+  if (data.size() - kHeaderSize > payload)
+    return Error{where + "corrupted: " + std::to_string(data.size() - kHeaderSize - payload) +
+                 " bytes after the payload"};
+  if (predictor_file::checksum(data.data() + kHeaderSize, payload) != sum)
+    return Error{where + "corrupted: checksum mismatch"};
+  Reader r{data.data() + kHeaderSize, payload};
+  std::uint64_t hash, n, s;
+  std::uint32_t solver, anchors;
+  double dt, gamma;
+  if (!r.get(hash) || !r.get(n) || !r.get(s) || !r.get(solver) || !r.get(anchors) || !r.get(dt) || !r.get(gamma))
+    return Error{where + "corrupted: payload too short for its parameters"};
+  if (hash != mesh_hash(net) || n != net.size())
+    return Error{where + "made for another mesh (" + std::to_string(n) + " vertices, mesh hash " + std::to_string(hash) +
+                 "; this mesh has " + std::to_string(net.size()) + " vertices, hash " + std::to_string(mesh_hash(net)) + ")"};
+  const std::string other = where + "made for other parameters: ";
+  if (solver != solver_code(options.solver))
+    return Error{other + "solver " + solver_name(solver) + " in the file, " + solver_name(solver_code(options.solver)) + " here"};
+  if (dt != options.dt) return Error{other + "dt " + num(dt) + " s in the file, " + num(options.dt) + " s here"};
+  if (gamma != options.point_damping)
+    return Error{other + "point_damping " + num(gamma) + " N·s/m in the file, " + num(options.point_damping) + " here"};
+  if (s != net.springs.size())
+    return Error{other + "topology: " + std::to_string(s) + " springs in the file, " + std::to_string(net.springs.size()) + " here"};
+  std::vector<double> mass, stiffness, damping;
+  std::vector<int> pairs, anchor_list;
+  if (!r.get_array(mass, n) || !r.get_array(pairs, 2 * s) || !r.get_array(stiffness, s) || !r.get_array(damping, s) ||
+      !r.get_array(anchor_list, anchors))
+    return Error{where + "corrupted: payload too short for its parameters"};
+  for (size_t i = 0; i < n; ++i)
+    if (mass[i] != net.mass[i])
+      return Error{other + "mass of vertex " + std::to_string(i) + " is " + num(mass[i]) + " kg in the file, " + num(net.mass[i]) + " kg here"};
+  for (size_t e = 0; e < s; ++e)
+    if (pairs[2 * e] != net.springs[e][0] || pairs[2 * e + 1] != net.springs[e][1])
+      return Error{other + "topology: spring " + std::to_string(e) + " joins " + std::to_string(pairs[2 * e]) + "-" +
+                   std::to_string(pairs[2 * e + 1]) + " in the file, " + std::to_string(net.springs[e][0]) + "-" +
+                   std::to_string(net.springs[e][1]) + " here"};
+  for (size_t e = 0; e < s; ++e)
+    if (stiffness[e] != net.stiffness[e])
+      return Error{other + "stiffness of spring " + std::to_string(e) + " is " + num(stiffness[e]) + " N/m in the file, " + num(net.stiffness[e]) + " N/m here"};
+  for (size_t e = 0; e < s; ++e)
+    if (damping[e] != net.damping[e])
+      return Error{other + "damping of spring " + std::to_string(e) + " is " + num(damping[e]) + " N·s/m in the file, " + num(net.damping[e]) + " here"};
+  if (anchor_list != net.anchors)
+    return Error{other + "anchors: " + std::to_string(anchor_list.size()) + " anchored vertices in the file, " +
+                 std::to_string(net.anchors.size()) + " here" + (anchor_list.size() == net.anchors.size() ? " (different vertices)" : "")};
+  SpringPredictor p;
+  p.kind = options.solver;
+  p.n = static_cast<int>(n);
+  if (p.kind == SpringSolver::desbrun) {
+    if (!r.get_array(p.inverse, n * n)) return Error{where + "corrupted: the dense inverse is short"};
+  } else {
+    std::uint64_t nnz;
+    if (!r.get(nnz) || !r.get_array(p.perm, n) || !r.get_array(p.col_start, n + 1) || !r.get_array(p.row, nnz) ||
+        !r.get_array(p.value, nnz) || !r.get_array(p.inv_diag, n))
+      return Error{where + "corrupted: the sparse factor is short"};
+    // Indices are used unchecked by the solve: check them once here.
+    if (p.col_start[0] != 0 || static_cast<std::uint64_t>(p.col_start[n]) != nnz)
+      return Error{where + "corrupted: the sparse factor's column starts are inconsistent"};
+    for (size_t c = 0; c < n; ++c)
+      if (p.col_start[c] > p.col_start[c + 1]) return Error{where + "corrupted: the sparse factor's column starts decrease"};
+    for (size_t c = 0; c < n; ++c)
+      for (int q = p.col_start[c]; q < p.col_start[c + 1]; ++q)
+        if (p.row[static_cast<size_t>(q)] <= static_cast<int>(c) || static_cast<std::uint64_t>(p.row[static_cast<size_t>(q)]) >= n)
+          return Error{where + "corrupted: the sparse factor has an entry outside its lower triangle"};
+    std::vector<char> seen(n, 0);
+    for (int v : p.perm) {
+      if (v < 0 || static_cast<std::uint64_t>(v) >= n || seen[static_cast<size_t>(v)])
+        return Error{where + "corrupted: the ordering is not a permutation"};
+      seen[static_cast<size_t>(v)] = 1;
+    }
+  }
+  if (r.left != 0) return Error{where + "corrupted: " + std::to_string(r.left) + " unexpected bytes at the end of the payload"};
+  return p;
+}
+
+Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelOptions& options,
+                                       const std::filesystem::path& file, PredictorPolicy policy, std::string* note,
+                                       const Progress& progress) {
+  if (options.solver == SpringSolver::exact || file.empty()) {
+    if (policy == PredictorPolicy::require_file && options.solver != SpringSolver::exact)
+      return Error{"a predictor file is required (predictor_policy: require_file) but none is named"};
+    if (note) *note = "computed";
+    return build_spring_model(std::move(network), options, progress);
+  }
+  std::string why;
+  if (std::filesystem::exists(file)) {
+    auto loaded = load_predictor(file, network, options);
+    if (loaded) {
+      if (note) *note = "loaded " + file.string();
+      return build_spring_model(std::move(network), options, std::move(*loaded));
+    }
+    why = loaded.error().message;
+  } else {
+    why = file.string() + ": no predictor file";
+  }
+  if (policy == PredictorPolicy::require_file) return Error{why + " (predictor_policy: require_file)"};
+  auto model = build_spring_model(std::move(network), options, progress);
+  if (!model) return model.error();
+  if (Status st = save_predictor(file, *model); !st) {
+    if (note) *note = "computed (" + why + "); not saved: " + st.error().message;
+  } else if (note) {
+    *note = "computed (" + why + "); saved " + file.string();
+  }
+  return model;
+}
+
+}  // namespace palpate

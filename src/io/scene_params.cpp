@@ -1,0 +1,239 @@
+// scene_params.cpp — the scene file's key tables (tool, device, camera, patch, mesh, scene,
+// tissue, waypoint) and the Markdown reference rendered from every table.
+#include "io/scene_params.h"
+
+#include <palpate/charged_def.h>
+#include <palpate/spring_def.h>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <type_traits>
+
+namespace palpate {
+
+std::span<const Param<SceneDef>> param_table(const SceneDef*) {
+  using D = SceneDef;
+  static const Param<D> table[] = {
+      {"name", &D::name, 0, 0, "", "the scene's name, used in outputs"},
+      {"duration", &D::duration, 1e-5, 3600.0, "s", "how long a run lasts"},
+      {"dt", &D::dt, 1e-5, 0.1, "s", "the haptic tick, at most `duration` (0.001 = 1 kHz)"},
+      {"output", &D::output, 0, 0, "", "directory a run writes to, relative to the scene file"},
+  };
+  return table;
+}
+
+std::span<const Param<ToolDef>> param_table(const ToolDef*) {
+  using D = ToolDef;
+  static const Param<D> table[] = {
+      {"kind", &D::kind, 0, 0, "", "a sphere probe or a needle", "sphere|needle"},
+      {"radius", &D::radius, 1e-5, 0.05, "m", "sphere radius, or the needle shaft's radius"},
+      {"length", &D::length, 0.0, 0.5, "m", "needle shaft length, > 0 for a needle (a sphere ignores it)"},
+      {"axis", &D::axis, -1.0, 1.0, "",
+       "direction the needle points, handle to tip, device frame; non-zero, normalised on load"},
+  };
+  return table;
+}
+
+std::span<const Param<DeviceDef>> param_table(const DeviceDef*) {
+  using D = DeviceDef;
+  static const Param<D> table[] = {
+      {"kind", &D::kind, 0, 0, "", "where the tool's pose comes from", "scripted|replay|openhaptics"},
+      {"trajectory", &D::trajectory, 0, 0, "",
+       "scripted: CSV of t,x,y,z (s, m) instead of `waypoints`; must exist"},
+      {"recording", &D::recording, 0, 0, "", "replay: a run's CSV to play back; required, must exist"},
+      {"max_force", &D::max_force, 0.0, 50.0, "N", "largest force sent to the device"},
+      {"max_force_rate", &D::max_force_rate, 0.0, 1e5, "N/s", "largest change of the force sent"},
+      {"ramp_in", &D::ramp_in, 0.0, 10.0, "s", "forces ramp in from zero over this time at the start"},
+      {"stiffness", &D::stiffness, 0.0, 1e5, "N/m", "device's nominal maximum stiffness (virtual coupling)"},
+      {"damping", &D::damping, 0.0, 1e3, "N·s/m", "device's nominal maximum damping"},
+  };
+  return table;
+}
+
+std::span<const Param<Waypoint>> param_table(const Waypoint*) {
+  using D = Waypoint;
+  static const Param<D> table[] = {
+      {"t", &D::t, 0.0, 3600.0, "s", "time of the waypoint; not before the previous one"},
+      {"position", &D::position, -10.0, 10.0, "m", "tool position (the HIP) at time t"},
+  };
+  return table;
+}
+
+std::span<const Param<CameraDef>> param_table(const CameraDef*) {
+  using D = CameraDef;
+  static const Param<D> table[] = {
+      {"position", &D::position, -100.0, 100.0, "m", "eye position"},
+      {"target", &D::target, -100.0, 100.0, "m", "point looked at; differs from `position`"},
+      {"fov", &D::fov, 1.0, 170.0, "degrees", "vertical field of view"},
+      {"width", &D::width, 16, 16384, "pixels", "image width"},
+      {"height", &D::height, 16, 16384, "pixels", "image height"},
+  };
+  return table;
+}
+
+std::span<const Param<TissueDef>> param_table(const TissueDef*) {
+  using D = TissueDef;
+  static const Param<D> table[] = {
+      {"name", &D::name, 0, 0, "", "unique name of the tissue"},
+      {"model", &D::model, 0, 0, "", "the tissue model; picks the `material` table",
+       "charged_particles|mass_spring"},
+  };
+  return table;
+}
+
+std::span<const Param<PatchDef>> param_table(const PatchDef*) {
+  using D = PatchDef;
+  static const Param<D> table[] = {
+      {"shape", &D::shape, 0, 0, "", "surface the patch is laid on", "flat|cylinder|sphere"},
+      {"width", &D::width, 1e-4, 1.0, "m", "extent along the patch's u direction, >= spacing"},
+      {"height", &D::height, 1e-4, 1.0, "m", "extent along its v direction, >= spacing"},
+      {"spacing", &D::spacing, 1e-5, 0.1, "m",
+       "distance between neighbouring particles; a charged patch's max_separation must exceed it"},
+      {"radius", &D::radius, 1e-4, 1.0, "m", "radius of a cylinder or sphere shape"},
+      {"center", &D::center, -10.0, 10.0, "m", "centre of the patch"},
+      {"normal", &D::normal, -1.0, 1.0, "", "outward normal at the centre; non-zero, normalised on load"},
+  };
+  return table;
+}
+
+std::span<const Param<MeshRef>> param_table(const MeshRef*) {
+  using D = MeshRef;
+  static const Param<D> table[] = {
+      {"file", &D::file, 0, 0, "",
+       "tetrahedral (.msh, .node/.ele, .vtk) or surface (.obj, .stl, .ply, .off) mesh; must exist"},
+      {"scale", &D::scale, 1e-6, 1e6, "", "multiplies the file's coordinates (mesh units to metres)"},
+      {"translate", &D::translate, -100.0, 100.0, "m", "added after scaling"},
+  };
+  return table;
+}
+
+const char* field_kind_name(FieldKind kind) {
+  switch (kind) {
+    case FieldKind::number: return "number";
+    case FieldKind::integer: return "integer";
+    case FieldKind::boolean: return "bool";
+    case FieldKind::vec3: return "[x, y, z]";
+    case FieldKind::string: return "string";
+    case FieldKind::path: return "path";
+  }
+  return "?";
+}
+
+std::string format_number(double x) { return fmt::format("{}", x); }
+
+std::string range_text(double min, double max, const char* unit) {
+  const std::string u = (unit && *unit) ? std::string(" ") + unit : std::string();
+  const bool lo = std::isfinite(min), hi = std::isfinite(max);
+  if (lo && hi) return "[" + format_number(min) + ", " + format_number(max) + "]" + u;
+  if (lo) return ">= " + format_number(min) + u;
+  if (hi) return "<= " + format_number(max) + u;
+  return "any";
+}
+
+std::string choices_text(const char* choices) {
+  std::string out;
+  for (const char* p = choices; *p; ++p) {
+    if (*p == '|')
+      out += ", ";
+    else
+      out += *p;
+  }
+  return out;
+}
+
+namespace {
+
+// One section of the reference: a heading, a sentence, and a table of its keys.
+struct SectionDoc {
+  const char* heading;
+  const char* intro;
+  std::span<const SectionKey> structural;
+  std::span<const char* const> required;
+};
+
+bool contains(std::span<const char* const> keys, const char* key) {
+  return std::any_of(keys.begin(), keys.end(), [&](const char* k) { return std::strcmp(k, key) == 0; });
+}
+
+std::string vec3_text(const Vec3& v) {
+  return "[" + format_number(v.x()) + ", " + format_number(v.y()) + ", " + format_number(v.z()) + "]";
+}
+
+// The default a default-constructed Def holds, as it would be written in YAML.
+template <class Def>
+std::string default_text(const Def& def, const typename Param<Def>::Field& field) {
+  return std::visit(
+      [&](auto member) -> std::string {
+        const auto& v = def.*member;
+        using T = std::remove_cvref_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, double>) return format_number(v);
+        else if constexpr (std::is_same_v<T, int>) return std::to_string(v);
+        else if constexpr (std::is_same_v<T, bool>) return v ? "true" : "false";
+        else if constexpr (std::is_same_v<T, Vec3>) return vec3_text(v);
+        else if constexpr (std::is_same_v<T, std::string>) return "\"" + v + "\"";
+        else return "\"" + v.string() + "\"";
+      },
+      field);
+}
+
+template <class Def>
+void render_section(std::string& out, const SectionDoc& doc) {
+  // static: with a local, GCC 12 at -O3 gives a false -Wmaybe-uninitialized through std::visit.
+  static const Def def{};
+  out += "### " + std::string(doc.heading) + "\n\n" + doc.intro + "\n\n";
+  out += "| key | type | unit | default | range | choices | meaning |\n";
+  out += "|---|---|---|---|---|---|---|\n";
+  for (const Param<Def>& p : param_table(static_cast<const Def*>(nullptr))) {
+    const auto kind = static_cast<FieldKind>(p.field.index());
+    const bool numeric = kind == FieldKind::number || kind == FieldKind::integer || kind == FieldKind::vec3;
+    const std::string dflt = contains(doc.required, p.key) ? "required" : "`" + default_text(def, p.field) + "`";
+    const std::string choices = *p.choices ? "`" + choices_text(p.choices) + "`" : "";
+    out += fmt::format("| `{}` | {} | {} | {} | {} | {} | {} |\n", p.key, field_kind_name(kind), p.unit, dflt,
+                       numeric ? range_text(p.min, p.max, "") : "", choices, p.doc);
+  }
+  for (const SectionKey& k : doc.structural) {
+    out += fmt::format("| `{}` | {} |  | {} |  |  | {} |\n", k.key, k.type,
+                       contains(doc.required, k.key) ? "required" : "", k.doc);
+  }
+  out += "\n";
+}
+
+}  // namespace
+
+std::string scene_reference_markdown() {
+  std::string out;
+  out += "<!-- Generated by palpate::scene_reference_markdown() from the parameter tables; do not edit. -->\n\n";
+  render_section<SceneDef>(
+      out, {"Top level", "The scene file is a YAML mapping with these keys.", kSceneSections, kSceneRequired});
+  render_section<ToolDef>(out, {"`tool`", "The tool held through the device; its tip is the haptic interaction point (HIP).",
+                                {}, {}});
+  render_section<DeviceDef>(
+      out, {"`device`",
+            "Where the tool's pose comes from. A `scripted` device follows `waypoints` or a `trajectory` "
+            "file (not both; with neither it holds the tool at the origin); `replay` plays a `recording`.",
+            kDeviceSections, {}});
+  render_section<Waypoint>(out, {"`device.waypoints[]`",
+                                 "Each waypoint is a mapping; positions are linearly interpolated between them "
+                                 "and held after the last.",
+                                 {}, kWaypointRequired});
+  render_section<CameraDef>(out, {"`camera`", "Optional; without it a viewer picks its own viewpoint.", {}, {}});
+  render_section<TissueDef>(out, {"`tissues[]`",
+                                  "Each tissue is a mapping with exactly one of `patch` and `mesh`; "
+                                  "names are unique.",
+                                  kTissueSections, kTissueRequired});
+  render_section<PatchDef>(out, {"`tissues[].patch`", "A generated rectangular patch of particles or vertices.",
+                                 {}, {}});
+  render_section<MeshRef>(out, {"`tissues[].mesh`", "A mesh file and how to place it.", {}, kMeshRequired});
+  render_section<ChargedMaterialDef>(
+      out, {"`tissues[].material` when `model: charged_particles`", "Material of a charged-particle patch.", {}, {}});
+  render_section<SpringMaterialDef>(out, {"`tissues[].material` when `model: mass_spring`",
+                                          "Material of a mass-spring-damper organ. A relative `predictor` "
+                                          "path is resolved against the scene file's directory.",
+                                          {}, {}});
+  return out;
+}
+
+}  // namespace palpate

@@ -1,0 +1,61 @@
+// scene_params.h — internal: the scene file's sections, their hand-handled keys, and helpers that
+// the YAML parser (scene_yaml.cpp) and the reference renderer (scene_params.cpp) share.
+#pragma once
+
+#include <palpate/scene.h>
+
+#include <span>
+#include <string>
+
+namespace palpate {
+
+// Tables of the two Defs that scene.h does not publish: their scalar keys are parsed generically,
+// like every other section's.
+std::span<const Param<TissueDef>> param_table(const TissueDef*);
+std::span<const Param<Waypoint>> param_table(const Waypoint*);
+
+// A key whose value is a mapping or a list, parsed by hand rather than through a table row.
+struct SectionKey {
+  const char* key;
+  const char* type;  // as shown in the reference: "mapping", "list of ...", ...
+  const char* doc;
+};
+
+// The hand-handled and the required keys of each section (the parser checks them; the reference
+// documents them). Keep the parser in scene_yaml.cpp in step when adding one.
+inline constexpr SectionKey kSceneSections[] = {
+    {"tool", "mapping", "the tool held through the device (section `tool`)"},
+    {"device", "mapping", "the haptic device that moves the tool (section `device`)"},
+    {"camera", "mapping", "optional viewpoint for drawing (section `camera`)"},
+    {"tissues", "list of mappings", "the tissues, at least one (section `tissues[]`)"},
+};
+inline constexpr const char* kSceneRequired[] = {"tissues"};
+
+inline constexpr SectionKey kDeviceSections[] = {
+    {"waypoints", "list of mappings",
+     "scripted: timed positions `{t, position}`, times non-decreasing (section `device.waypoints[]`)"},
+};
+inline constexpr const char* kWaypointRequired[] = {"t", "position"};
+
+inline constexpr SectionKey kTissueSections[] = {
+    {"patch", "mapping", "a generated patch (section `tissues[].patch`); exactly one of patch and mesh"},
+    {"mesh", "mapping", "a mesh file (section `tissues[].mesh`); exactly one of patch and mesh"},
+    {"material", "mapping", "the model's material (sections `tissues[].material`)"},
+    {"anchors", "list of integers", "0-based indices of fixed particles or vertices"},
+};
+inline constexpr const char* kTissueRequired[] = {"name"};
+inline constexpr const char* kMeshRequired[] = {"file"};
+
+// What the alternatives of Param<Def>::Field hold, in the variant's order.
+enum class FieldKind { number, integer, boolean, vec3, string, path };
+
+// "number", "integer", "bool", "[x, y, z]", "string", "path".
+const char* field_kind_name(FieldKind kind);
+// A number as the messages and the reference print it: shortest form that reads back exactly.
+std::string format_number(double x);
+// The valid range of a number: "[1e-05, 0.1] s", ">= 0 N", "any" (unit "" = dimensionless).
+std::string range_text(double min, double max, const char* unit);
+// The choices "a|b|c" as "a, b, c".
+std::string choices_text(const char* choices);
+
+}  // namespace palpate

@@ -1,0 +1,515 @@
+// scene_yaml.cpp — the YAML scene parser (the only file that includes yaml-cpp): a generic reader
+// driven by the parameter tables, plus the checks that span keys (dt <= duration, patch vs mesh, ...).
+#include "io/scene_params.h"
+
+#include <palpate/scene.h>
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <type_traits>
+#include <vector>
+
+namespace palpate {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Thrown inside the parser only; parse_scene turns it into an Error.
+struct ParseFailure {
+  std::string message;
+};
+
+// Where messages point and what relative paths are resolved against.
+struct Ctx {
+  std::string name;   // the file as named in messages
+  fs::path base_dir;  // "" = leave relative paths relative (to the working directory)
+
+  // "FILE:LINE: PATH: WHAT"; line <= 0 leaves the line out, an empty path leaves it out.
+  [[noreturn]] void fail(int line, const std::string& path, const std::string& what) const {
+    std::string m = name;
+    if (line > 0) m += ":" + std::to_string(line);
+    m += ": ";
+    if (!path.empty()) m += path + ": ";
+    m += what;
+    throw ParseFailure{m};
+  }
+
+  fs::path resolve(const fs::path& p) const {
+    if (p.empty() || p.is_absolute() || base_dir.empty()) return p;
+    return (base_dir / p).lexically_normal();
+  }
+};
+
+// yaml-cpp's marks are 0-based; messages use 1-based lines. Nodes without a mark use `fallback`.
+int line_of(const YAML::Node& n, int fallback) {
+  const YAML::Mark m = n.Mark();
+  return m.line >= 0 ? m.line + 1 : fallback;
+}
+
+std::string join(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+
+std::string indexed(const std::string& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
+
+// What a node holds, for "got ..." in messages.
+std::string describe(const YAML::Node& n) {
+  if (!n.IsDefined() || n.IsNull()) return "nothing";
+  if (n.IsScalar()) return "'" + n.Scalar() + "'";
+  if (n.IsSequence()) return "a list of " + std::to_string(n.size());
+  return "a mapping";
+}
+
+std::string unit_note(const char* unit) {
+  return (unit && *unit) ? std::string(" (") + unit + ")" : std::string();
+}
+
+// A YAML number: decimal or exponent form, plus YAML's .inf/.nan spellings (rejected later as
+// not finite, with their own message).
+bool scalar_to_double(const std::string& s, double& x) {
+  static const char* const nans[] = {".nan", ".NaN", ".NAN"};
+  static const char* const infs[] = {".inf", ".Inf", ".INF", "+.inf", "+.Inf", "+.INF"};
+  static const char* const ninfs[] = {"-.inf", "-.Inf", "-.INF"};
+  for (const char* k : nans)
+    if (s == k) return x = std::numeric_limits<double>::quiet_NaN(), true;
+  for (const char* k : infs)
+    if (s == k) return x = std::numeric_limits<double>::infinity(), true;
+  for (const char* k : ninfs)
+    if (s == k) return x = -std::numeric_limits<double>::infinity(), true;
+  const char* b = s.data();
+  const char* e = b + s.size();
+  if (b != e && *b == '+') ++b;
+  if (b == e) return false;
+  const auto [end, ec] = std::from_chars(b, e, x);
+  if (end != e) return false;
+  // Out of double's range (1e400): strtod gives +-HUGE_VAL (rejected as not finite) or a tiny value.
+  if (ec == std::errc::result_out_of_range) x = std::strtod(s.c_str(), nullptr);
+  return ec == std::errc() || ec == std::errc::result_out_of_range;
+}
+
+double read_number(const Ctx& c, const YAML::Node& v, const std::string& path, int line, double min,
+                   double max, const char* unit) {
+  double x = 0;
+  if (!v.IsScalar() || !scalar_to_double(v.Scalar(), x))
+    c.fail(line, path, "expected a number" + unit_note(unit) + ", got " + describe(v));
+  if (!std::isfinite(x)) c.fail(line, path, "expected a finite number" + unit_note(unit) + ", got " + describe(v));
+  if (x < min || x > max) {
+    const std::string u = (unit && *unit) ? std::string(" ") + unit : std::string();
+    c.fail(line, path, format_number(x) + u + " is out of range; expected " + range_text(min, max, unit));
+  }
+  return x;
+}
+
+int read_int(const Ctx& c, const YAML::Node& v, const std::string& path, int line, double min, double max,
+             const char* unit) {
+  long long x = 0;
+  bool ok = v.IsScalar();
+  if (ok) {
+    const std::string& s = v.Scalar();
+    const char* b = s.data();
+    const char* e = b + s.size();
+    if (b != e && *b == '+') ++b;
+    const auto [end, ec] = std::from_chars(b, e, x);
+    ok = b != e && ec == std::errc() && end == e;
+  }
+  if (!ok) c.fail(line, path, "expected an integer" + unit_note(unit) + ", got " + describe(v));
+  if (static_cast<double>(x) < min || static_cast<double>(x) > max) {
+    const std::string u = (unit && *unit) ? std::string(" ") + unit : std::string();
+    c.fail(line, path, std::to_string(x) + u + " is out of range; expected an integer in " + range_text(min, max, unit));
+  }
+  return static_cast<int>(x);
+}
+
+bool read_bool(const Ctx& c, const YAML::Node& v, const std::string& path, int line) {
+  if (v.IsScalar()) {
+    static const char* const yes[] = {"true", "True", "TRUE", "yes", "Yes", "YES", "on", "On", "ON"};
+    static const char* const no[] = {"false", "False", "FALSE", "no", "No", "NO", "off", "Off", "OFF"};
+    for (const char* k : yes)
+      if (v.Scalar() == k) return true;
+    for (const char* k : no)
+      if (v.Scalar() == k) return false;
+  }
+  c.fail(line, path, "expected true or false, got " + describe(v));
+}
+
+Vec3 read_vec3(const Ctx& c, const YAML::Node& v, const std::string& path, int line, double min, double max,
+               const char* unit) {
+  if (!v.IsSequence() || v.size() != 3)
+    c.fail(line, path, "expected 3 numbers [x, y, z]" + unit_note(unit) + ", got " + describe(v));
+  Vec3 out;
+  for (size_t i = 0; i < 3; ++i) {
+    const YAML::Node e = v[i];
+    out[static_cast<Eigen::Index>(i)] = read_number(c, e, indexed(path, i), line_of(e, line), min, max, unit);
+  }
+  return out;
+}
+
+std::string read_string(const Ctx& c, const YAML::Node& v, const std::string& path, int line,
+                        const char* choices) {
+  if (!v.IsScalar()) {
+    if (*choices) c.fail(line, path, "expected one of: " + choices_text(choices) + ", got " + describe(v));
+    c.fail(line, path, "expected a string, got " + describe(v));
+  }
+  const std::string& s = v.Scalar();
+  if (*choices) {
+    std::string all = std::string("|") + choices + "|";
+    if (s.empty() || s.find('|') != std::string::npos || all.find("|" + s + "|") == std::string::npos)
+      c.fail(line, path, "'" + s + "' is not one of: " + choices_text(choices));
+  }
+  return s;
+}
+
+// Edit distance with transpositions (optimal string alignment), for "did you mean" on unknown
+// keys: "widht" is one edit from "width".
+size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::vector<size_t>> d(a.size() + 1, std::vector<size_t>(b.size() + 1));
+  for (size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    for (size_t j = 1; j <= b.size(); ++j) {
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+    }
+  }
+  return d[a.size()][b.size()];
+}
+
+// The keys of one mapping that a table did not take (sections parsed by hand), and every key's line.
+struct Keys {
+  std::map<std::string, YAML::Node> sections;
+  std::map<std::string, int> lines;
+  int line_or(const std::string& key, int fallback) const {
+    const auto it = lines.find(key);
+    return it == lines.end() ? fallback : it->second;
+  }
+  // Line of a section's value; a null value's mark points past it, so it takes its key's line.
+  int value_line(const std::string& key, int fallback) const {
+    const auto it = sections.find(key);
+    const int kline = line_or(key, fallback);
+    return it == sections.end() || it->second.IsNull() ? kline : line_of(it->second, kline);
+  }
+};
+
+// Read a mapping into `def` through its parameter table. `sections` are keys the caller parses;
+// `other_hint(key)` may explain an unknown key (e.g. that it belongs to the other model's table).
+template <class Def>
+Keys read_table(const Ctx& c, const YAML::Node& map, const std::string& path, int line, const char* what,
+                Def& def, std::span<const SectionKey> sections = {}, std::span<const char* const> required = {},
+                const std::function<std::string(const std::string&)>& other_hint = {}) {
+  if (!map.IsMap()) c.fail(line, path, std::string("expected a mapping of ") + what + " keys, got " + describe(map));
+  const std::span<const Param<Def>> table = param_table(static_cast<const Def*>(nullptr));
+  Keys keys;
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const YAML::Node k = it->first;
+    const YAML::Node v = it->second;
+    const int kline = line_of(k, line);
+    if (!k.IsScalar()) c.fail(kline, path, "expected a key name, got " + describe(k));
+    const std::string key = k.Scalar();
+    const std::string kpath = join(path, key);
+    if (const auto seen = keys.lines.find(key); seen != keys.lines.end())
+      c.fail(kline, kpath, "duplicate key (first on line " + std::to_string(seen->second) + ")");
+    keys.lines[key] = kline;
+    // A null value (`key:` with nothing after it) carries the mark of whatever follows: use the key's line.
+    const int vline = v.IsNull() ? kline : line_of(v, kline);
+
+    const auto row = std::find_if(table.begin(), table.end(),
+                                  [&](const Param<Def>& p) { return key == p.key; });
+    if (row != table.end()) {
+      const Param<Def>& p = *row;
+      std::visit(
+          [&](auto member) {
+            auto& field = def.*member;
+            using T = std::remove_cvref_t<decltype(field)>;
+            if constexpr (std::is_same_v<T, double>) field = read_number(c, v, kpath, vline, p.min, p.max, p.unit);
+            else if constexpr (std::is_same_v<T, int>) field = read_int(c, v, kpath, vline, p.min, p.max, p.unit);
+            else if constexpr (std::is_same_v<T, bool>) field = read_bool(c, v, kpath, vline);
+            else if constexpr (std::is_same_v<T, Vec3>) field = read_vec3(c, v, kpath, vline, p.min, p.max, p.unit);
+            else if constexpr (std::is_same_v<T, std::string>) field = read_string(c, v, kpath, vline, p.choices);
+            else field = c.resolve(fs::path(read_string(c, v, kpath, vline, "")));
+          },
+          p.field);
+      continue;
+    }
+    const auto sec = std::find_if(sections.begin(), sections.end(),
+                                  [&](const SectionKey& s) { return key == s.key; });
+    if (sec != sections.end()) {
+      keys.sections[key] = v;
+      continue;
+    }
+    // Unknown: suggest the closest valid key when it is a likely typo, and list them all.
+    std::vector<std::string> valid;
+    for (const Param<Def>& p : table) valid.emplace_back(p.key);
+    for (const SectionKey& s : sections) valid.emplace_back(s.key);
+    std::string best;
+    size_t best_d = std::numeric_limits<size_t>::max();
+    for (const std::string& cand : valid) {
+      const size_t d = edit_distance(key, cand);
+      if (d < best_d) best_d = d, best = cand;
+    }
+    std::string msg = "unknown key";
+    if (!best.empty() && best_d < key.size() && best_d <= std::max<size_t>(1, key.size() / 4)) msg += " (did you mean '" + best + "'?)";
+    if (other_hint) {
+      const std::string hint = other_hint(key);
+      if (!hint.empty()) msg += "; " + hint;
+    }
+    msg += "; valid " + std::string(what) + " keys: ";
+    for (size_t i = 0; i < valid.size(); ++i) msg += (i ? ", " : "") + valid[i];
+    c.fail(kline, kpath, msg);
+  }
+  for (const char* r : required)
+    if (!keys.lines.count(r)) c.fail(line, path, std::string("missing required key '") + r + "'");
+  return keys;
+}
+
+// An input file a scene names must exist when the scene is loaded, not halfway through a run.
+void require_file(const Ctx& c, const fs::path& p, int line, const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(p, ec))
+    c.fail(line, path, "file not found: " + p.string() +
+                           (c.base_dir.empty() ? std::string() : " (relative paths are resolved against " +
+                                                                       c.base_dir.string() + ")"));
+}
+
+// A direction given in the file: any non-zero length, stored as a unit vector.
+Vec3 unit_direction(const Ctx& c, const Vec3& v, int line, const std::string& path) {
+  const double n = v.norm();
+  if (!(n > 1e-9)) c.fail(line, path, "expected a non-zero direction [x, y, z], got [0, 0, 0]");
+  return v / n;
+}
+
+ToolDef parse_tool(const Ctx& c, const YAML::Node& node, int line) {
+  ToolDef tool;
+  const Keys k = read_table(c, node, "tool", line, "tool", tool);
+  tool.axis = unit_direction(c, tool.axis, k.line_or("axis", line), "tool.axis");
+  if (tool.kind == "needle" && !(tool.length > 0))
+    c.fail(k.line_or("length", line), "tool.length",
+           "a needle needs a length > 0 m, got " + format_number(tool.length) + " m");
+  return tool;
+}
+
+DeviceDef parse_device(const Ctx& c, const YAML::Node& node, int line) {
+  DeviceDef dev;
+  const Keys k = read_table(c, node, "device", line, "device", dev, kDeviceSections);
+  const bool scripted = dev.kind == "scripted";
+  if (const auto w = k.sections.find("waypoints"); w != k.sections.end()) {
+    const int wline = k.value_line("waypoints", line);
+    if (!scripted)
+      c.fail(k.line_or("waypoints", line), "device.waypoints",
+             "only a scripted device follows waypoints (kind is '" + dev.kind + "')");
+    if (!w->second.IsSequence() || w->second.size() == 0)
+      c.fail(wline, "device.waypoints", "expected a non-empty list of {t, position}, got " + describe(w->second));
+    for (size_t i = 0; i < w->second.size(); ++i) {
+      const YAML::Node e = w->second[i];
+      const std::string path = indexed("device.waypoints", i);
+      const int eline = line_of(e, wline);
+      Waypoint wp;
+      const Keys wk = read_table(c, e, path, eline, "waypoint", wp, {}, kWaypointRequired);
+      if (!dev.waypoints.empty() && wp.t < dev.waypoints.back().t)
+        c.fail(wk.line_or("t", eline), path + ".t",
+               "time " + format_number(wp.t) + " s goes back (previous waypoint at " +
+                   format_number(dev.waypoints.back().t) + " s); expected non-decreasing times");
+      dev.waypoints.push_back(wp);
+    }
+  }
+  if (!dev.trajectory.empty()) {
+    if (!scripted)
+      c.fail(k.line_or("trajectory", line), "device.trajectory",
+             "only a scripted device follows a trajectory (kind is '" + dev.kind + "')");
+    if (!dev.waypoints.empty())
+      c.fail(k.line_or("trajectory", line), "device.trajectory",
+             "give either 'waypoints' or 'trajectory', not both");
+    require_file(c, dev.trajectory, k.line_or("trajectory", line), "device.trajectory");
+  }
+  if (dev.kind == "replay") {
+    if (dev.recording.empty()) c.fail(line, "device", "missing required key 'recording' (kind is 'replay')");
+    require_file(c, dev.recording, k.line_or("recording", line), "device.recording");
+  } else if (!dev.recording.empty()) {
+    c.fail(k.line_or("recording", line), "device.recording",
+           "only a replay device plays a recording (kind is '" + dev.kind + "')");
+  }
+  return dev;
+}
+
+CameraDef parse_camera(const Ctx& c, const YAML::Node& node, int line) {
+  CameraDef cam;
+  const Keys k = read_table(c, node, "camera", line, "camera", cam);
+  if ((cam.position - cam.target).norm() < 1e-9)
+    c.fail(k.line_or("target", line), "camera.target", "must differ from camera.position");
+  return cam;
+}
+
+// Keys of one model's material table, for telling a user a key belongs to the other model.
+template <class Def>
+bool has_key(const std::string& key) {
+  for (const Param<Def>& p : param_table(static_cast<const Def*>(nullptr)))
+    if (key == p.key) return true;
+  return false;
+}
+
+TissueDef parse_tissue(const Ctx& c, const YAML::Node& node, size_t index, int list_line) {
+  const std::string path = indexed("tissues", index);
+  TissueDef t;
+  t.line = line_of(node, list_line);
+  const Keys k = read_table(c, node, path, t.line, "tissue", t, kTissueSections, kTissueRequired);
+  if (t.name.empty()) c.fail(k.line_or("name", t.line), path + ".name", "expected a non-empty name");
+
+  const auto patch = k.sections.find("patch");
+  const auto mesh = k.sections.find("mesh");
+  if (patch != k.sections.end() && mesh != k.sections.end())
+    c.fail(k.line_or("mesh", t.line), path, "has both 'patch' and 'mesh'; expected exactly one");
+  if (patch == k.sections.end() && mesh == k.sections.end())
+    c.fail(t.line, path, "has neither 'patch' nor 'mesh'; expected exactly one");
+  if (patch != k.sections.end()) {
+    const int pline = k.value_line("patch", t.line);
+    PatchDef p;
+    const Keys pk = read_table(c, patch->second, path + ".patch", pline, "patch", p);
+    p.normal = unit_direction(c, p.normal, pk.line_or("normal", pline), path + ".patch.normal");
+    for (const char* side : {"width", "height"}) {
+      const double extent = std::strcmp(side, "width") == 0 ? p.width : p.height;
+      if (extent < p.spacing)
+        c.fail(pk.line_or(side, pline), path + ".patch." + side,
+               format_number(extent) + " m is less than the spacing " + format_number(p.spacing) +
+                   " m; expected at least one spacing");
+    }
+    t.patch = p;
+  } else {
+    const int mline = k.value_line("mesh", t.line);
+    MeshRef m;
+    const Keys mk = read_table(c, mesh->second, path + ".mesh", mline, "mesh", m, {}, kMeshRequired);
+    if (m.file.empty()) c.fail(mk.line_or("file", mline), path + ".mesh.file", "expected a file name, got ''");
+    require_file(c, m.file, mk.line_or("file", mline), path + ".mesh.file");
+    t.mesh = m;
+  }
+
+  const bool charged = t.model == "charged_particles";
+  if (const auto mat = k.sections.find("material"); mat != k.sections.end()) {
+    const int mline = k.value_line("material", t.line);
+    const std::string mpath = path + ".material";
+    Keys mk;
+    if (charged) {
+      mk = read_table(c, mat->second, mpath, mline, "charged_particles material", t.charged, {}, {},
+                      [](const std::string& key) {
+                        return has_key<SpringMaterialDef>(key) ? "'" + key + "' is a mass_spring key" : std::string();
+                      });
+    } else {
+      mk = read_table(c, mat->second, mpath, mline, "mass_spring material", t.spring, {}, {},
+                      [](const std::string& key) {
+                        return has_key<ChargedMaterialDef>(key) ? "'" + key + "' is a charged_particles key"
+                                                                : std::string();
+                      });
+    }
+    if (charged && t.patch && !(t.charged.max_separation > t.patch->spacing))
+      c.fail(mk.line_or("max_separation", mline), mpath + ".max_separation",
+             format_number(t.charged.max_separation) + " m must exceed the patch spacing " +
+                 format_number(t.patch->spacing) + " m");
+  } else if (charged && t.patch && !(t.charged.max_separation > t.patch->spacing)) {
+    c.fail(t.line, path + ".material.max_separation",
+           "the default " + format_number(t.charged.max_separation) + " m must exceed the patch spacing " +
+               format_number(t.patch->spacing) + " m; set it");
+  }
+  if (!t.spring.predictor.empty()) t.spring.predictor = c.resolve(t.spring.predictor).string();
+
+  if (const auto a = k.sections.find("anchors"); a != k.sections.end()) {
+    const int aline = k.value_line("anchors", t.line);
+    if (!a->second.IsSequence())
+      c.fail(aline, path + ".anchors", "expected a list of vertex or particle indices, got " + describe(a->second));
+    for (size_t i = 0; i < a->second.size(); ++i) {
+      const YAML::Node e = a->second[i];
+      const std::string epath = indexed(path + ".anchors", i);
+      const int v = read_int(c, e, epath, line_of(e, aline), 0, std::numeric_limits<int>::max(), "");
+      if (std::find(t.anchors.begin(), t.anchors.end(), v) != t.anchors.end())
+        c.fail(line_of(e, aline), epath, std::to_string(v) + " is listed twice");
+      t.anchors.push_back(v);
+    }
+  }
+  return t;
+}
+
+SceneDef parse_root(const Ctx& c, const YAML::Node& root) {
+  SceneDef s;
+  const Keys k = read_table(c, root, "", 1, "scene", s, kSceneSections, kSceneRequired);
+  if (s.dt > s.duration)
+    c.fail(k.line_or("dt", k.line_or("duration", 1)), "dt",
+           format_number(s.dt) + " s exceeds duration " + format_number(s.duration) + " s; expected dt <= duration");
+  if (s.output.empty()) c.fail(k.line_or("output", 1), "output", "expected a directory, got ''");
+  s.output = c.resolve(s.output);
+  if (const auto n = k.sections.find("tool"); n != k.sections.end())
+    s.tool = parse_tool(c, n->second, k.value_line("tool", 1));
+  if (const auto n = k.sections.find("device"); n != k.sections.end())
+    s.device = parse_device(c, n->second, k.value_line("device", 1));
+  if (const auto n = k.sections.find("camera"); n != k.sections.end())
+    s.camera = parse_camera(c, n->second, k.value_line("camera", 1));
+
+  const YAML::Node list = k.sections.at("tissues");
+  const int lline = k.value_line("tissues", 1);
+  if (!list.IsSequence() || list.size() == 0)
+    c.fail(lline, "tissues", "expected a non-empty list of tissues, got " + describe(list));
+  for (size_t i = 0; i < list.size(); ++i) {
+    TissueDef t = parse_tissue(c, list[i], i, lline);
+    for (const TissueDef& other : s.tissues)
+      if (other.name == t.name)
+        c.fail(t.line, indexed("tissues", i) + ".name",
+               "duplicate tissue name '" + t.name + "' (first on line " + std::to_string(other.line) + ")");
+    s.tissues.push_back(std::move(t));
+  }
+  return s;
+}
+
+}  // namespace
+
+Result<SceneDef> parse_scene(const std::string& yaml, const std::string& name, const fs::path& base_dir) {
+  const Ctx c{name, base_dir};
+  try {
+    YAML::Node root;
+    try {
+      const std::vector<YAML::Node> docs = YAML::LoadAll(yaml);
+      if (docs.size() > 1)
+        c.fail(line_of(docs[1], 0), "", "a second YAML document starts here; expected one scene per file");
+      if (!docs.empty()) root = docs[0];
+    } catch (const YAML::ParserException& e) {
+      std::string m = name;
+      if (e.mark.line >= 0) m += ":" + std::to_string(e.mark.line + 1);
+      m += ": YAML syntax error: " + e.msg;
+      if (e.mark.column >= 0) m += " (column " + std::to_string(e.mark.column + 1) + ")";
+      return Error{m};
+    }
+    if (!root.IsDefined() || root.IsNull())
+      return Error{name + ": the scene is empty; expected a mapping with at least the key 'tissues'"};
+    if (!root.IsMap())
+      c.fail(line_of(root, 1), "", "expected a mapping of scene keys at the top level, got " + describe(root));
+    return parse_root(c, root);
+  } catch (const ParseFailure& f) {
+    return Error{f.message};
+  } catch (const YAML::Exception& e) {
+    // Not expected (the reader checks node types before use); still a message, never a crash.
+    return Error{name + ": " + e.what()};
+  }
+}
+
+Result<SceneDef> load_scene(const fs::path& file) {
+  std::error_code ec;
+  if (fs::is_directory(file, ec)) return Error{file.string() + ": is a directory; expected a YAML scene file"};
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return Error{file.string() + ": cannot open scene file (" + std::strerror(errno) + ")"};
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) return Error{file.string() + ": cannot read scene file"};
+  const fs::path base = fs::absolute(file, ec).parent_path();
+  Result<SceneDef> scene = parse_scene(text.str(), file.string(), ec ? file.parent_path() : base);
+  if (scene) scene->file = file;
+  return scene;
+}
+
+}  // namespace palpate

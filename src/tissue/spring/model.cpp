@@ -1,0 +1,190 @@
+// model.cpp — the precompute phase of the mass-spring model: the constant implicit matrix
+// A = M + h(γI + C_L) + h²K_L (Desbrun, Schröder & Barr 1999, §4), its dense inverse or sparse
+// LDLᵀ factor, and the model and state built around it.
+#include <palpate/spring.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
+
+#include <algorithm>
+#include <string>
+
+namespace palpate {
+
+namespace {
+
+std::vector<std::uint8_t> anchored_flags(const SpringNetwork& net) {
+  std::vector<std::uint8_t> a(net.size(), 0);
+  for (int i : net.anchors) a[static_cast<size_t>(i)] = 1;
+  return a;
+}
+
+// The triplets of A: diagonal m_i + hγ + Σ(hc + h²k), off-diagonal −(hc + h²k) per spring;
+// anchored rows and columns are the identity (their velocity change is zero).
+std::vector<Eigen::Triplet<double>> predictor_triplets(const SpringNetwork& net, const SpringModelOptions& o) {
+  const double h = o.dt;
+  const auto anchored = anchored_flags(net);
+  std::vector<double> diag(net.size());
+  for (size_t i = 0; i < net.size(); ++i) diag[i] = net.mass[i] + h * o.point_damping;
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(net.size() + 2 * net.springs.size());
+  for (size_t e = 0; e < net.springs.size(); ++e) {
+    const auto [a, b] = net.springs[e];
+    const double w = h * net.damping[e] + h * h * net.stiffness[e];
+    diag[static_cast<size_t>(a)] += w;
+    diag[static_cast<size_t>(b)] += w;
+    if (anchored[static_cast<size_t>(a)] || anchored[static_cast<size_t>(b)]) continue;
+    t.emplace_back(a, b, -w);
+    t.emplace_back(b, a, -w);
+  }
+  for (size_t i = 0; i < net.size(); ++i) {
+    const int ii = static_cast<int>(i);
+    t.emplace_back(ii, ii, anchored[i] ? 1.0 : diag[i]);
+  }
+  return t;
+}
+
+bool is_all_pairs(const SpringNetwork& net) {
+  const size_t n = net.size();
+  if (net.springs.size() != n * (n - 1) / 2) return false;
+  size_t e = 0;
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j, ++e)
+      if (net.springs[e][0] != static_cast<int>(i) || net.springs[e][1] != static_cast<int>(j)) return false;
+  return true;
+}
+
+Status check_options(const SpringModelOptions& o) {
+  if (!(o.dt > 0) || !(o.dt < 1)) return Error{"dt must be in (0, 1) s, got " + std::to_string(o.dt)};
+  if (!(o.point_damping >= 0)) return Error{"point_damping must be >= 0"};
+  if (!(o.contact_stiffness >= 0) || !(o.grasp_stiffness >= 0)) return Error{"contact and grasp stiffness must be >= 0"};
+  return {};
+}
+
+}  // namespace
+
+Result<SpringPredictor> build_predictor(const SpringNetwork& net, const SpringModelOptions& o,
+                                        const Progress& progress) {
+  if (Status st = validate(net, "spring network"); !st) return st.error();
+  if (Status st = check_options(o); !st) return st.error();
+  SpringPredictor p;
+  p.kind = o.solver;
+  p.n = static_cast<int>(net.size());
+  if (o.solver == SpringSolver::exact) return p;
+  const int n = p.n;
+  Eigen::SparseMatrix<double> A(n, n);
+  const auto triplets = predictor_triplets(net, o);
+  A.setFromTriplets(triplets.begin(), triplets.end());
+  if (o.solver == SpringSolver::desbrun) {
+    if (net.size() > o.dense_limit)
+      return Error{"the desbrun solver keeps a dense n x n inverse; " + std::to_string(n) +
+                   " vertices exceed its limit of " + std::to_string(o.dense_limit) + " (use solver: sparse)"};
+    const Eigen::MatrixXd dense = Eigen::MatrixXd(A);
+    Eigen::LLT<Eigen::MatrixXd> llt(dense);
+    if (llt.info() != Eigen::Success) return Error{"the predictor matrix is not positive definite"};
+    // A⁻¹ column block by column block, so progress can be reported.
+    p.inverse.assign(static_cast<size_t>(n) * static_cast<size_t>(n), 0.0);
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> W(p.inverse.data(), n, n);
+    const int block = 64;
+    for (int c0 = 0; c0 < n; c0 += block) {
+      const int w = std::min(block, n - c0);
+      // A is symmetric, so rows of A⁻¹ are its columns.
+      W.middleRows(c0, w) = llt.solve(Eigen::MatrixXd::Identity(n, n).middleCols(c0, w)).transpose();
+      if (progress) progress(static_cast<double>(c0 + w) / n);
+    }
+    return p;
+  }
+  // Sparse: LDLᵀ of P A Pᵀ with Eigen's approximate minimum degree ordering; factorised once.
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
+  if (progress) progress(0.05);
+  ldlt.compute(A);
+  if (ldlt.info() != Eigen::Success) return Error{"the predictor matrix could not be factorised"};
+  const auto& L = ldlt.matrixL().nestedExpression();
+  p.perm.resize(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) p.perm[static_cast<size_t>(i)] = ldlt.permutationP().indices()[i];
+  p.col_start.assign(static_cast<size_t>(n) + 1, 0);
+  p.row.reserve(static_cast<size_t>(L.nonZeros()));
+  p.value.reserve(static_cast<size_t>(L.nonZeros()));
+  for (int c = 0; c < n; ++c) {
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L, c); it; ++it)
+      if (it.row() > c) {
+        p.row.push_back(static_cast<int>(it.row()));
+        p.value.push_back(it.value());
+      }
+    p.col_start[static_cast<size_t>(c) + 1] = static_cast<int>(p.row.size());
+  }
+  p.inv_diag.resize(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const double d = ldlt.vectorD()[i];
+    if (!(d > 0)) return Error{"the predictor matrix is not positive definite (pivot " + std::to_string(i) + ")"};
+    p.inv_diag[static_cast<size_t>(i)] = 1.0 / d;
+  }
+  if (progress) progress(1.0);
+  return p;
+}
+
+Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelOptions& options,
+                                       SpringPredictor predictor) {
+  if (Status st = validate(network, "spring network"); !st) return st.error();
+  if (Status st = check_options(options); !st) return st.error();
+  if (predictor.kind != options.solver || predictor.n != static_cast<int>(network.size()) ||
+      (options.solver != SpringSolver::exact && predictor.empty()))
+    return Error{"the predictor does not match the model (solver or vertex count)"};
+  SpringModel m;
+  m.network = std::move(network);
+  m.options = options;
+  m.predictor = std::move(predictor);
+  m.anchored = anchored_flags(m.network);
+  const size_t n = m.network.size();
+  const double h = options.dt;
+  m.max_contact_stiffness.resize(n);
+  for (size_t i = 0; i < n; ++i) m.max_contact_stiffness[i] = (m.network.mass[i] + h * options.point_damping) / (h * h);
+  m.adjacency_start.assign(n + 1, 0);
+  for (const auto& s : m.network.springs) {
+    ++m.adjacency_start[static_cast<size_t>(s[0]) + 1];
+    ++m.adjacency_start[static_cast<size_t>(s[1]) + 1];
+  }
+  for (size_t i = 0; i < n; ++i) m.adjacency_start[i + 1] += m.adjacency_start[i];
+  m.adjacency.resize(2 * m.network.springs.size());
+  std::vector<int> fill(m.adjacency_start.begin(), m.adjacency_start.end() - 1);
+  for (size_t e = 0; e < m.network.springs.size(); ++e)
+    for (int v : m.network.springs[e]) m.adjacency[static_cast<size_t>(fill[static_cast<size_t>(v)]++)] = static_cast<int>(e);
+  m.total_mass = 0;
+  for (double mi : m.network.mass) m.total_mass += mi;
+  m.all_pairs = n > 2 && is_all_pairs(m.network);
+  return m;
+}
+
+Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelOptions& options,
+                                       const Progress& progress) {
+  auto p = build_predictor(network, options, progress);
+  if (!p) return p.error();
+  return build_spring_model(std::move(network), options, std::move(*p));
+}
+
+SpringState make_state(const SpringModel& model) {
+  SpringState s;
+  const Eigen::Index n = static_cast<Eigen::Index>(model.network.size());
+  s.x = model.network.rest;
+  s.v = RowMat3d::Zero(n, 3);
+  s.force = RowMat3d::Zero(n, 3);
+  s.rhs = RowMat3d::Zero(n, 3);
+  s.dv = RowMat3d::Zero(n, 3);
+  s.work = RowMat3d::Zero(n, 3);
+  s.soa.assign(model.all_pairs ? static_cast<size_t>(n) * 10 : 0, 0.0);
+  return s;
+}
+
+void reset(const SpringModel& model, SpringState& s) noexcept {
+  s.x = model.network.rest;
+  s.v.setZero();
+  s.time = 0;
+  s.grasped_count = 0;
+  s.grasping = false;
+  s.tool_force.setZero();
+  s.anchor_force.setZero();
+  s.contacts = 0;
+}
+
+}  // namespace palpate

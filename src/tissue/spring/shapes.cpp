@@ -1,0 +1,163 @@
+// shapes.cpp — meshes made in code: tetrahedralised block, flat sheet, tet-mesh boundary, balls.
+#include "tissue/spring/shapes.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numbers>
+
+namespace palpate::spring {
+
+namespace {
+
+double signed_volume6(const RowMat3d& V, int a, int b, int c, int d) {
+  const Vec3 pa = V.row(a).transpose();
+  return (V.row(b).transpose() - pa).dot((V.row(c).transpose() - pa).cross(V.row(d).transpose() - pa));
+}
+
+}  // namespace
+
+TetMesh make_block(int nx, int ny, int nz, double spacing, const Vec3& origin) {
+  TetMesh m;
+  m.V.resize(static_cast<Eigen::Index>(nx) * ny * nz, 3);
+  auto id = [&](int i, int j, int k) { return i + nx * (j + ny * k); };
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i)
+        m.V.row(id(i, j, k)) = (origin + spacing * Vec3(i, j, k)).transpose();
+  // Five-tet split of a cube: corners c[b] with b = x + 2y + 4z. Even cubes keep the tet
+  // {1,2,4,7} in the middle, odd cubes {0,3,5,6}: shared faces then get the same diagonal.
+  static constexpr int kEven[5][4] = {{1, 2, 4, 7}, {0, 1, 2, 4}, {3, 1, 2, 7}, {5, 1, 4, 7}, {6, 2, 4, 7}};
+  static constexpr int kOdd[5][4] = {{0, 3, 5, 6}, {1, 0, 3, 5}, {2, 0, 3, 6}, {4, 0, 5, 6}, {7, 3, 5, 6}};
+  std::vector<std::array<int, 4>> tets;
+  tets.reserve(static_cast<size_t>(std::max(0, (nx - 1) * (ny - 1) * (nz - 1))) * 5);
+  for (int k = 0; k + 1 < nz; ++k)
+    for (int j = 0; j + 1 < ny; ++j)
+      for (int i = 0; i + 1 < nx; ++i) {
+        int c[8];
+        for (int b = 0; b < 8; ++b) c[b] = id(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1));
+        const auto& split = ((i + j + k) % 2 == 0) ? kEven : kOdd;
+        for (const auto& t : split) {
+          std::array<int, 4> tet{c[t[0]], c[t[1]], c[t[2]], c[t[3]]};
+          if (signed_volume6(m.V, tet[0], tet[1], tet[2], tet[3]) < 0) std::swap(tet[2], tet[3]);
+          tets.push_back(tet);
+        }
+      }
+  m.T.resize(static_cast<Eigen::Index>(tets.size()), 4);
+  for (size_t t = 0; t < tets.size(); ++t)
+    for (int c = 0; c < 4; ++c) m.T(static_cast<Eigen::Index>(t), c) = tets[t][static_cast<size_t>(c)];
+  return m;
+}
+
+TetMesh make_tet_ball(double radius, double spacing) {
+  const int n = static_cast<int>(std::ceil(2 * radius / spacing)) + 1;
+  const Vec3 origin = Vec3::Constant(-0.5 * spacing * (n - 1));
+  const TetMesh block = make_block(n, n, n, spacing, origin);
+  std::vector<int> renumber(static_cast<size_t>(block.V.rows()), -1);
+  std::vector<std::array<int, 4>> kept;
+  for (Eigen::Index t = 0; t < block.T.rows(); ++t) {
+    Vec3 c = Vec3::Zero();
+    for (int k = 0; k < 4; ++k) c += block.V.row(block.T(t, k)).transpose();
+    if ((c / 4).norm() > radius) continue;
+    kept.push_back({block.T(t, 0), block.T(t, 1), block.T(t, 2), block.T(t, 3)});
+  }
+  int count = 0;
+  for (auto& t : kept)
+    for (int& v : t) {
+      int& r = renumber[static_cast<size_t>(v)];
+      if (r < 0) r = count++;
+      v = r;
+    }
+  TetMesh m;
+  m.V.resize(count, 3);
+  for (Eigen::Index v = 0; v < block.V.rows(); ++v)
+    if (renumber[static_cast<size_t>(v)] >= 0) m.V.row(renumber[static_cast<size_t>(v)]) = block.V.row(v);
+  m.T.resize(static_cast<Eigen::Index>(kept.size()), 4);
+  for (size_t t = 0; t < kept.size(); ++t)
+    for (int k = 0; k < 4; ++k) m.T(static_cast<Eigen::Index>(t), k) = kept[t][static_cast<size_t>(k)];
+  return m;
+}
+
+SurfaceMesh make_sheet(const PatchDef& patch) {
+  const int nu = std::max(2, static_cast<int>(std::lround(patch.width / patch.spacing)) + 1);
+  const int nv = std::max(2, static_cast<int>(std::lround(patch.height / patch.spacing)) + 1);
+  Vec3 normal = patch.normal.norm() > 0 ? patch.normal.normalized() : Vec3(0, 1, 0);
+  // u along x projected onto the plane (or z when the normal is along x).
+  Vec3 u = Vec3::UnitX() - normal * normal.x();
+  if (u.norm() < 1e-6) u = Vec3::UnitZ() - normal * normal.z();
+  u.normalize();
+  const Vec3 v = normal.cross(u);
+  SurfaceMesh m;
+  m.V.resize(static_cast<Eigen::Index>(nu) * nv, 3);
+  for (int j = 0; j < nv; ++j)
+    for (int i = 0; i < nu; ++i) {
+      const double a = -0.5 * patch.width + patch.width * i / (nu - 1);
+      const double b = -0.5 * patch.height + patch.height * j / (nv - 1);
+      m.V.row(i + nu * j) = (patch.center + a * u + b * v).transpose();
+    }
+  m.F.resize(2 * static_cast<Eigen::Index>(nu - 1) * (nv - 1), 3);
+  Eigen::Index f = 0;
+  for (int j = 0; j + 1 < nv; ++j)
+    for (int i = 0; i + 1 < nu; ++i) {
+      const int a = i + nu * j, b = a + 1, c = a + nu, d = c + 1;
+      // (u, v, normal) is right-handed: counter-clockwise in (u, v) faces along the normal.
+      m.F.row(f++) << a, b, d;
+      m.F.row(f++) << a, d, c;
+    }
+  m.N = RowMat3d::Zero(m.V.rows(), 3);
+  for (Eigen::Index r = 0; r < m.N.rows(); ++r) m.N.row(r) = normal.transpose();
+  return m;
+}
+
+std::vector<std::array<int, 3>> boundary_triangles(const TetMesh& mesh) {
+  // A face of one tet only is on the boundary. Faces listed outward for a positive tet.
+  std::map<std::array<int, 3>, std::pair<std::array<int, 3>, int>> faces;
+  static constexpr int kFaces[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+  for (Eigen::Index t = 0; t < mesh.T.rows(); ++t)
+    for (const auto& f : kFaces) {
+      std::array<int, 3> tri{mesh.T(t, f[0]), mesh.T(t, f[1]), mesh.T(t, f[2])};
+      std::array<int, 3> key = tri;
+      std::sort(key.begin(), key.end());
+      auto [it, inserted] = faces.try_emplace(key, tri, 0);
+      ++it->second.second;
+      (void)inserted;
+    }
+  std::vector<std::array<int, 3>> out;
+  for (const auto& [key, face] : faces)
+    if (face.second == 1) out.push_back(face.first);
+  return out;
+}
+
+SurfaceMesh make_ball_surface(int vertices, double radius) {
+  const int rings = std::max(2, static_cast<int>(std::lround(std::sqrt(vertices / 2.0))));
+  const int segs = std::max(3, (vertices - 2) / rings);
+  SurfaceMesh m;
+  m.V.resize(static_cast<Eigen::Index>(rings) * segs + 2, 3);
+  m.V.row(0) << 0, radius, 0;
+  for (int r = 0; r < rings; ++r) {
+    const double theta = std::numbers::pi * (r + 1) / (rings + 1);
+    for (int s = 0; s < segs; ++s) {
+      const double phi = 2 * std::numbers::pi * s / segs;
+      m.V.row(1 + r * segs + s) << radius * std::sin(theta) * std::cos(phi), radius * std::cos(theta),
+          radius * std::sin(theta) * std::sin(phi);
+    }
+  }
+  const int south = rings * segs + 1;
+  m.V.row(south) << 0, -radius, 0;
+  std::vector<std::array<int, 3>> tris;
+  auto at = [&](int r, int s) { return 1 + r * segs + (s % segs); };
+  for (int s = 0; s < segs; ++s) tris.push_back({0, at(0, s + 1), at(0, s)});
+  for (int r = 0; r + 1 < rings; ++r)
+    for (int s = 0; s < segs; ++s) {
+      tris.push_back({at(r, s), at(r, s + 1), at(r + 1, s + 1)});
+      tris.push_back({at(r, s), at(r + 1, s + 1), at(r + 1, s)});
+    }
+  for (int s = 0; s < segs; ++s) tris.push_back({south, at(rings - 1, s), at(rings - 1, s + 1)});
+  m.F.resize(static_cast<Eigen::Index>(tris.size()), 3);
+  for (size_t f = 0; f < tris.size(); ++f)
+    m.F.row(static_cast<Eigen::Index>(f)) << tris[f][0], tris[f][1], tris[f][2];
+  m.N = m.V / radius;
+  return m;
+}
+
+}  // namespace palpate::spring

@@ -1,0 +1,31 @@
+// shapes.h — meshes made in code for the mass-spring model: a regular tetrahedralised block, a flat
+// sheet, and the boundary of a tet mesh (internal; shared by the tissue, tests and benchmarks).
+#pragma once
+
+#include <palpate/mesh.h>
+#include <palpate/scene.h>
+
+#include <array>
+#include <vector>
+
+namespace palpate::spring {
+
+// nx x ny x nz vertices on a grid of `spacing` (m) starting at `origin`; each cube cut into five
+// tetrahedra, alternating with the cube's parity so that neighbouring cubes share face diagonals
+// (10³ vertices → 5,130 edges; 20³ → 44,460). Vertex (i, j, k) has index i + nx (j + ny k).
+TetMesh make_block(int nx, int ny, int nz, double spacing, const Vec3& origin = Vec3::Zero());
+
+// A flat sheet of triangles over a grid in the plane through patch.center normal to patch.normal.
+SurfaceMesh make_sheet(const PatchDef& patch);
+
+// The triangles of a tet mesh's boundary, outward oriented, over the same vertex indices.
+std::vector<std::array<int, 3>> boundary_triangles(const TetMesh& mesh);
+
+// A ball of radius r cut out of a make_block grid of `spacing`: the tets whose centroid lies inside,
+// vertices renumbered compactly. An organ-like tet mesh with an irregular boundary.
+TetMesh make_tet_ball(double radius, double spacing);
+
+// A UV-sphere-like closed surface ("organ" stand-in) with about `vertices` vertices, radius r.
+SurfaceMesh make_ball_surface(int vertices, double radius);
+
+}  // namespace palpate::spring

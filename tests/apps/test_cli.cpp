@@ -1,0 +1,96 @@
+// test_cli.cpp — the palpate command as a user meets it: --version, --help, exit codes, errors.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+struct Ran {
+  int code = -1;
+  std::string out;  // stdout and stderr together
+};
+
+Ran run(const std::string& args) {
+  Ran r;
+  const std::string cmd = std::string(PALPATE_CLI) + " " + args + " 2>&1 </dev/null";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf{};
+  size_t n = 0;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+}  // namespace
+
+TEST(Cli, VersionPrintsNameAndVersion) {
+  Ran r = run("--version");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_EQ(r.out.rfind("palpate 0.", 0), 0u) << r.out;
+}
+
+TEST(Cli, HelpListsEveryCommand) {
+  Ran r = run("--help");
+  EXPECT_EQ(r.code, 0);
+  for (const char* c : {"run", "info", "precompute"}) EXPECT_NE(r.out.find(c), std::string::npos) << c;
+}
+
+TEST(Cli, CommandHelpDescribesItsOptions) {
+  Ran r = run("run --help");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("--out"), std::string::npos) << r.out;
+  r = run("info --help");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("--scale"), std::string::npos) << r.out;
+}
+
+TEST(Cli, NoCommandOrUnknownCommandFails) {
+  EXPECT_NE(run("").code, 0);
+  Ran r = run("frobnicate");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("frobnicate"), std::string::npos) << r.out;
+}
+
+TEST(Cli, MissingSceneFileIsNamed) {
+  Ran r = run("run /nonexistent/scene.yaml");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("/nonexistent/scene.yaml"), std::string::npos) << r.out;
+}
+
+TEST(Cli, BadSceneGivesFileAndLine) {
+  const auto p = std::filesystem::temp_directory_path() / "palpate_cli_bad.yaml";
+  std::ofstream(p) << "name: x\nduration: -1\n";
+  Ran r = run("run " + p.string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("palpate_cli_bad.yaml:2"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("duration"), std::string::npos) << r.out;
+}
+
+TEST(Cli, InfoDescribesTheSharedLiver) {
+  Ran r = run(std::string("info ") + PALPATE_SHARED_DATA_DIR + "/meshes/liver.msh");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("tetrahedral"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("181"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("596"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("36.56"), std::string::npos) << r.out;
+
+  r = run(std::string("info ") + PALPATE_SHARED_DATA_DIR + "/meshes/liver_tet_boundary.obj");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("closed      yes"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("manifold    yes"), std::string::npos) << r.out;
+}
+
+TEST(Cli, InfoOnBadMeshFailsWithItsName) {
+  const auto p = std::filesystem::temp_directory_path() / "palpate_cli_empty.obj";
+  std::ofstream(p) << "# nothing\n";
+  Ran r = run("info " + p.string());
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("palpate_cli_empty.obj"), std::string::npos) << r.out;
+}

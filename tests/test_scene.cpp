@@ -1,0 +1,607 @@
+// test_scene.cpp — the YAML scene loader: every value read, defaults, one test per kind of bad input
+// (exact error texts), the example scenes, and docs/scene-format.md kept in step with the tables.
+#include <palpate/scene.h>
+
+#include "io/scene_params.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+
+namespace fs = std::filesystem;
+using palpate::parse_scene;
+using palpate::SceneDef;
+using palpate::Vec3;
+
+namespace {
+
+const fs::path kTestData = PALPATE_TEST_DATA_DIR "/scenes";
+
+// The error text of a scene that must fail to parse.
+std::string error_of(const std::string& yaml, const fs::path& base = kTestData) {
+  auto r = parse_scene(yaml, "s.yaml", base);
+  EXPECT_FALSE(r.ok()) << "parsed, but expected an error:\n" << yaml;
+  return r.ok() ? std::string() : r.error().message;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A valid scene's tissues list, appended to scenes that test other sections.
+const char* const kOneTissue = "tissues:\n  - name: a\n    patch: {}\n";
+
+}  // namespace
+
+TEST(Scene, GoodSceneRoundTripsEveryValue) {
+  const std::string yaml = R"(name: full
+duration: 2.5
+dt: 0.0005
+output: results/run1
+tool:
+  kind: needle
+  radius: 0.0005
+  length: 0.07
+  axis: [0, 0, -0.5]
+device:
+  kind: scripted
+  max_force: 2.5
+  max_force_rate: 150
+  ramp_in: 0.2
+  stiffness: 800
+  damping: 1.5
+  waypoints:
+    - {t: 0, position: [0.001, 0.02, -0.003]}
+    - {t: 1.5, position: [0, -0.01, 0]}
+    - {t: 1.5, position: [0, -0.01, 0.002]}
+camera:
+  position: [0.1, 0.2, 0.3]
+  target: [0, -0.01, 0]
+  fov: 55
+  width: 640
+  height: 480
+tissues:
+  - name: skin
+    model: charged_particles
+    patch:
+      shape: cylinder
+      width: 0.03
+      height: 0.02
+      spacing: 0.0008
+      radius: 0.015
+      center: [0.001, -0.002, 0.003]
+      normal: [0, 0, 0.5]
+    material:
+      max_displacement: 0.005
+      elasticity: 12.5
+      sphere_of_influence: 0.002
+      max_separation: 0.0012
+      particle_charge: 2.0e-7
+      hip_charge: 3.0e-7
+      puncture_force: 1.8
+      hole_closes: true
+    anchors: [0, 5, 17]
+  - name: liver
+    model: mass_spring
+    mesh:
+      file: liver.msh
+      scale: 0.01
+      translate: [0.01, -0.02, 0.03]
+    material:
+      topology: tet_edges
+      solver: sparse
+      stiffness: 4500
+      youngs_modulus: 3000
+      spring_damping: 0.2
+      point_damping: 0.7
+      mass: 1.5
+      density: 1060
+      gravity: false
+      predictor: cache/liver.pred
+)";
+  const fs::path base = fs::path(PALPATE_SHARED_DATA_DIR "/meshes").lexically_normal();
+  auto r = parse_scene(yaml, "full.yaml", PALPATE_SHARED_DATA_DIR "/meshes");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const SceneDef& s = *r;
+  EXPECT_EQ(s.name, "full");
+  EXPECT_EQ(s.duration, 2.5);
+  EXPECT_EQ(s.dt, 0.0005);
+  EXPECT_EQ(s.output, base / "results/run1");
+  EXPECT_EQ(s.tool.kind, "needle");
+  EXPECT_EQ(s.tool.radius, 0.0005);
+  EXPECT_EQ(s.tool.length, 0.07);
+  EXPECT_EQ(s.tool.axis, Vec3(0, 0, -1));  // normalised
+  EXPECT_EQ(s.device.kind, "scripted");
+  EXPECT_EQ(s.device.max_force, 2.5);
+  EXPECT_EQ(s.device.max_force_rate, 150);
+  EXPECT_EQ(s.device.ramp_in, 0.2);
+  EXPECT_EQ(s.device.stiffness, 800);
+  EXPECT_EQ(s.device.damping, 1.5);
+  ASSERT_EQ(s.device.waypoints.size(), 3u);
+  EXPECT_EQ(s.device.waypoints[0].t, 0);
+  EXPECT_EQ(s.device.waypoints[0].position, Vec3(0.001, 0.02, -0.003));
+  EXPECT_EQ(s.device.waypoints[1].t, 1.5);
+  EXPECT_EQ(s.device.waypoints[2].position, Vec3(0, -0.01, 0.002));
+  ASSERT_TRUE(s.camera.has_value());
+  EXPECT_EQ(s.camera->position, Vec3(0.1, 0.2, 0.3));
+  EXPECT_EQ(s.camera->target, Vec3(0, -0.01, 0));
+  EXPECT_EQ(s.camera->fov, 55);
+  EXPECT_EQ(s.camera->width, 640);
+  EXPECT_EQ(s.camera->height, 480);
+  ASSERT_EQ(s.tissues.size(), 2u);
+
+  const auto& skin = s.tissues[0];
+  EXPECT_EQ(skin.name, "skin");
+  EXPECT_EQ(skin.model, "charged_particles");
+  EXPECT_EQ(skin.line, 28);
+  ASSERT_TRUE(skin.patch.has_value());
+  EXPECT_FALSE(skin.mesh.has_value());
+  EXPECT_EQ(skin.patch->shape, "cylinder");
+  EXPECT_EQ(skin.patch->width, 0.03);
+  EXPECT_EQ(skin.patch->height, 0.02);
+  EXPECT_EQ(skin.patch->spacing, 0.0008);
+  EXPECT_EQ(skin.patch->radius, 0.015);
+  EXPECT_EQ(skin.patch->center, Vec3(0.001, -0.002, 0.003));
+  EXPECT_EQ(skin.patch->normal, Vec3(0, 0, 1));
+  EXPECT_EQ(skin.charged.max_displacement, 0.005);
+  EXPECT_EQ(skin.charged.elasticity, 12.5);
+  EXPECT_EQ(skin.charged.sphere_of_influence, 0.002);
+  EXPECT_EQ(skin.charged.max_separation, 0.0012);
+  EXPECT_EQ(skin.charged.particle_charge, 2.0e-7);
+  EXPECT_EQ(skin.charged.hip_charge, 3.0e-7);
+  EXPECT_EQ(skin.charged.puncture_force, 1.8);
+  EXPECT_TRUE(skin.charged.hole_closes);
+  EXPECT_EQ(skin.anchors, (std::vector<int>{0, 5, 17}));
+
+  const auto& liver = s.tissues[1];
+  EXPECT_EQ(liver.name, "liver");
+  EXPECT_EQ(liver.model, "mass_spring");
+  EXPECT_EQ(liver.line, 48);
+  ASSERT_TRUE(liver.mesh.has_value());
+  EXPECT_FALSE(liver.patch.has_value());
+  EXPECT_EQ(liver.mesh->file, base / "liver.msh");
+  EXPECT_EQ(liver.mesh->scale, 0.01);
+  EXPECT_EQ(liver.mesh->translate, Vec3(0.01, -0.02, 0.03));
+  EXPECT_EQ(liver.spring.topology, "tet_edges");
+  EXPECT_EQ(liver.spring.solver, "sparse");
+  EXPECT_EQ(liver.spring.stiffness, 4500);
+  EXPECT_EQ(liver.spring.youngs_modulus, 3000);
+  EXPECT_EQ(liver.spring.spring_damping, 0.2);
+  EXPECT_EQ(liver.spring.point_damping, 0.7);
+  EXPECT_EQ(liver.spring.mass, 1.5);
+  EXPECT_EQ(liver.spring.density, 1060);
+  EXPECT_FALSE(liver.spring.gravity);
+  EXPECT_EQ(liver.spring.predictor, (base / "cache/liver.pred").string());
+  EXPECT_TRUE(liver.anchors.empty());
+}
+
+TEST(Scene, DefaultsApplyToEveryOmittedKey) {
+  auto r = parse_scene(kOneTissue, "min.yaml", "/scenes");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const SceneDef& s = *r;
+  const SceneDef d;
+  EXPECT_EQ(s.name, d.name);
+  EXPECT_EQ(s.duration, d.duration);
+  EXPECT_EQ(s.dt, d.dt);
+  EXPECT_EQ(s.output, fs::path("/scenes/out"));
+  EXPECT_EQ(s.tool.kind, d.tool.kind);
+  EXPECT_EQ(s.tool.radius, d.tool.radius);
+  EXPECT_EQ(s.tool.axis, d.tool.axis);
+  EXPECT_EQ(s.device.kind, "scripted");
+  EXPECT_TRUE(s.device.waypoints.empty());
+  EXPECT_EQ(s.device.max_force, d.device.max_force);
+  EXPECT_FALSE(s.camera.has_value());
+  ASSERT_EQ(s.tissues.size(), 1u);
+  const palpate::TissueDef& t = s.tissues[0];
+  EXPECT_EQ(t.model, "charged_particles");
+  EXPECT_EQ(t.line, 2);
+  const palpate::PatchDef p;
+  EXPECT_EQ(t.patch->shape, p.shape);
+  EXPECT_EQ(t.patch->width, p.width);
+  EXPECT_EQ(t.patch->spacing, p.spacing);
+  EXPECT_EQ(t.patch->normal, p.normal);
+  const palpate::ChargedMaterialDef c;
+  EXPECT_EQ(t.charged.max_displacement, c.max_displacement);
+  EXPECT_EQ(t.charged.max_separation, c.max_separation);
+  EXPECT_EQ(t.charged.puncture_force, c.puncture_force);
+  EXPECT_EQ(t.spring.solver, palpate::SpringMaterialDef{}.solver);
+  // A camera section with no keys is the default camera.
+  auto cam = parse_scene(std::string("camera: {}\n") + kOneTissue, "min.yaml");
+  ASSERT_TRUE(cam.ok()) << cam.error().message;
+  ASSERT_TRUE(cam->camera.has_value());
+  EXPECT_EQ(cam->camera->width, palpate::CameraDef{}.width);
+  EXPECT_EQ(cam->camera->position, palpate::CameraDef{}.position);
+}
+
+// Every table: keys unique, ranges ordered, and the member's default inside its own range/choices.
+template <class Def>
+void check_table_defaults() {
+  const Def def{};
+  std::set<std::string> keys;
+  for (const auto& p : palpate::param_table(static_cast<const Def*>(nullptr))) {
+    EXPECT_TRUE(keys.insert(p.key).second) << "duplicate key " << p.key;
+    EXPECT_LE(p.min, p.max) << p.key;
+    EXPECT_TRUE(*p.doc) << p.key << " has no doc";
+    std::visit(
+        [&](auto member) {
+          const auto& v = def.*member;
+          using T = std::remove_cvref_t<decltype(v)>;
+          if constexpr (std::is_same_v<T, double> || std::is_same_v<T, int>) {
+            EXPECT_GE(static_cast<double>(v), p.min) << p.key;
+            EXPECT_LE(static_cast<double>(v), p.max) << p.key;
+          } else if constexpr (std::is_same_v<T, Vec3>) {
+            EXPECT_GE(v.minCoeff(), p.min) << p.key;
+            EXPECT_LE(v.maxCoeff(), p.max) << p.key;
+          } else if constexpr (std::is_same_v<T, std::string>) {
+            if (*p.choices) {
+              const std::string all = std::string("|") + p.choices + "|";
+              EXPECT_NE(all.find("|" + v + "|"), std::string::npos) << p.key << " default '" << v << "'";
+            }
+          }
+        },
+        p.field);
+  }
+}
+
+TEST(Scene, EveryTableDefaultLiesInItsRange) {
+  check_table_defaults<palpate::SceneDef>();
+  check_table_defaults<palpate::ToolDef>();
+  check_table_defaults<palpate::DeviceDef>();
+  check_table_defaults<palpate::Waypoint>();
+  check_table_defaults<palpate::CameraDef>();
+  check_table_defaults<palpate::TissueDef>();
+  check_table_defaults<palpate::PatchDef>();
+  check_table_defaults<palpate::MeshRef>();
+  check_table_defaults<palpate::ChargedMaterialDef>();
+  check_table_defaults<palpate::SpringMaterialDef>();
+}
+
+TEST(SceneErrors, UnknownKeySuggestsTheClosestAndListsValidKeys) {
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {}\n    material:\n      max_displacment: 0.01\n"),
+            "s.yaml:5: tissues[0].material.max_displacment: unknown key (did you mean 'max_displacement'?); "
+            "valid charged_particles material keys: max_displacement, elasticity, sphere_of_influence, "
+            "max_separation, particle_charge, hip_charge, puncture_force, hole_closes, track_friction, "
+            "friction_velocity, mesh_spacing");
+  // Far from every key: no suggestion; section keys are listed with the table's.
+  EXPECT_EQ(error_of(std::string("colour: red\n") + kOneTissue),
+            "s.yaml:1: colour: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, "
+            "tissues");
+  EXPECT_EQ(error_of(std::string("tool: {radus: 0.002}\n") + kOneTissue).substr(0, 57),
+            "s.yaml:1: tool.radus: unknown key (did you mean 'radius'?");
+}
+
+TEST(SceneErrors, UnknownMaterialKeyOfTheOtherModelSaysSo) {
+  const std::string e = error_of(
+      "tissues:\n  - name: a\n    model: mass_spring\n    patch: {}\n    material: {puncture_force: 2}\n");
+  EXPECT_EQ(e.substr(0, e.find("; valid")),
+            "s.yaml:5: tissues[0].material.puncture_force: unknown key; 'puncture_force' is a "
+            "charged_particles key");
+  EXPECT_NE(e.find("valid mass_spring material keys: topology, solver,"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, MissingRequiredKeys) {
+  EXPECT_EQ(error_of("name: x\nduration: 2\n"), "s.yaml:1: missing required key 'tissues'");
+  EXPECT_EQ(error_of("tissues:\n  - model: mass_spring\n    patch: {}\n"),
+            "s.yaml:2: tissues[0]: missing required key 'name'");
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    mesh:\n      scale: 2\n"),
+            "s.yaml:4: tissues[0].mesh: missing required key 'file'");
+  EXPECT_EQ(error_of(std::string("device:\n  waypoints:\n    - {t: 0}\n") + kOneTissue),
+            "s.yaml:3: device.waypoints[0]: missing required key 'position'");
+  EXPECT_EQ(error_of(std::string("device: {kind: replay}\n") + kOneTissue),
+            "s.yaml:1: device: missing required key 'recording' (kind is 'replay')");
+}
+
+TEST(SceneErrors, WrongTypeNamesWhatWasExpected) {
+  EXPECT_EQ(error_of(std::string("tool:\n  radius: abc\n") + kOneTissue),
+            "s.yaml:2: tool.radius: expected a number (m), got 'abc'");
+  EXPECT_EQ(error_of(std::string("duration: [1, 2]\n") + kOneTissue),
+            "s.yaml:1: duration: expected a number (s), got a list of 2");
+  EXPECT_EQ(error_of(std::string("camera: {width: 2.5}\n") + kOneTissue),
+            "s.yaml:1: camera.width: expected an integer (pixels), got '2.5'");
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {}\n    material: {hole_closes: maybe}\n"),
+            "s.yaml:4: tissues[0].material.hole_closes: expected true or false, got 'maybe'");
+  EXPECT_EQ(error_of(std::string("name: {a: 1}\n") + kOneTissue), "s.yaml:1: name: expected a string, got a mapping");
+  EXPECT_EQ(error_of(std::string("tool: 3\n") + kOneTissue),
+            "s.yaml:1: tool: expected a mapping of tool keys, got '3'");
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {}\n    anchors: [1, x]\n"),
+            "s.yaml:4: tissues[0].anchors[1]: expected an integer, got 'x'");
+  EXPECT_EQ(error_of("tissues: {name: a}\n"), "s.yaml:1: tissues: expected a non-empty list of tissues, got a mapping");
+  EXPECT_EQ(error_of("tissues: []\n"), "s.yaml:1: tissues: expected a non-empty list of tissues, got a list of 0");
+  EXPECT_EQ(error_of(std::string("duration:\n") + kOneTissue), "s.yaml:1: duration: expected a number (s), got nothing");
+  EXPECT_EQ(error_of(std::string("tool:\n") + kOneTissue), "s.yaml:1: tool: expected a mapping of tool keys, got nothing");
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch:\n"),
+            "s.yaml:3: tissues[0].patch: expected a mapping of patch keys, got nothing");
+}
+
+TEST(SceneErrors, OutOfRangeGivesTheRangeAndUnit) {
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {}\n    material:\n      max_displacement: 5\n"),
+            "s.yaml:5: tissues[0].material.max_displacement: 5 m is out of range; expected [1e-06, 1] m");
+  EXPECT_EQ(error_of(std::string("duration: 7200\n") + kOneTissue),
+            "s.yaml:1: duration: 7200 s is out of range; expected [1e-05, 3600] s");
+  EXPECT_EQ(error_of(std::string("camera:\n  height: 4\n") + kOneTissue),
+            "s.yaml:2: camera.height: 4 pixels is out of range; expected an integer in [16, 16384] pixels");
+  EXPECT_EQ(error_of(std::string("tool: {axis: [0, -3, 0]}\n") + kOneTissue),
+            "s.yaml:1: tool.axis[1]: -3 is out of range; expected [-1, 1]");
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {}\n    anchors: [-1]\n"),
+            "s.yaml:4: tissues[0].anchors[0]: -1 is out of range; expected an integer in [0, 2147483647]");
+}
+
+TEST(SceneErrors, StringNotAmongChoicesListsThem) {
+  EXPECT_EQ(error_of(std::string("tool: {kind: scalpel}\n") + kOneTissue),
+            "s.yaml:1: tool.kind: 'scalpel' is not one of: sphere, needle");
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    model: fem\n    patch: {}\n"),
+            "s.yaml:3: tissues[0].model: 'fem' is not one of: charged_particles, mass_spring");
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    model: mass_spring\n    patch: {}\n    material:\n"
+                     "      solver: cg\n"),
+            "s.yaml:6: tissues[0].material.solver: 'cg' is not one of: desbrun, sparse, exact");
+  // A prefix or a joined pair of choices is not a choice.
+  EXPECT_EQ(error_of(std::string("tool: {kind: 'sphere|needle'}\n") + kOneTissue),
+            "s.yaml:1: tool.kind: 'sphere|needle' is not one of: sphere, needle");
+  EXPECT_EQ(error_of(std::string("tool: {kind: sph}\n") + kOneTissue),
+            "s.yaml:1: tool.kind: 'sph' is not one of: sphere, needle");
+}
+
+TEST(SceneErrors, VectorMustBeThreeNumbers) {
+  EXPECT_EQ(error_of(std::string("tool:\n  axis: [0, 1]\n") + kOneTissue),
+            "s.yaml:2: tool.axis: expected 3 numbers [x, y, z], got a list of 2");
+  EXPECT_EQ(error_of(std::string("camera:\n  target: 0.5\n") + kOneTissue),
+            "s.yaml:2: camera.target: expected 3 numbers [x, y, z] (m), got '0.5'");
+  EXPECT_EQ(error_of(std::string("camera:\n  target: [0, y, 0]\n") + kOneTissue),
+            "s.yaml:2: camera.target[1]: expected a number (m), got 'y'");
+  EXPECT_EQ(error_of(std::string("tool: {axis: [0, 0, 0]}\n") + kOneTissue),
+            "s.yaml:1: tool.axis: expected a non-zero direction [x, y, z], got [0, 0, 0]");
+}
+
+TEST(SceneErrors, YamlSyntaxErrorGivesLine) {
+  const std::string e = error_of("name: x\ntool:\n  radius: [0.1\n  kind: sphere\n");
+  EXPECT_EQ(e.rfind("s.yaml:", 0), 0u) << e;
+  EXPECT_NE(e.find(": YAML syntax error: "), std::string::npos) << e;
+  EXPECT_NE(e.find("(column "), std::string::npos) << e;
+  EXPECT_EQ(error_of("name: x\n  bad: indent\n").substr(0, 35), "s.yaml:2: YAML syntax error: illega");
+}
+
+TEST(SceneErrors, EmptyFileAndNonMappingTopLevel) {
+  const std::string empty = "s.yaml: the scene is empty; expected a mapping with at least the key 'tissues'";
+  EXPECT_EQ(error_of(""), empty);
+  EXPECT_EQ(error_of("# only a comment\n\n"), empty);
+  EXPECT_EQ(error_of("- a\n- b\n"), "s.yaml:1: expected a mapping of scene keys at the top level, got a list of 2");
+  EXPECT_EQ(error_of(std::string(kOneTissue) + "---\nname: second\n"),
+            "s.yaml:5: a second YAML document starts here; expected one scene per file");
+  // A short key far from every valid one gets no suggestion.
+  EXPECT_EQ(error_of(std::string("<<: {}\n") + kOneTissue),
+            "s.yaml:1: <<: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, tissues");
+  EXPECT_EQ(error_of("just text\n"),
+            "s.yaml:1: expected a mapping of scene keys at the top level, got 'just text'");
+}
+
+TEST(SceneErrors, DuplicateTissueNamesAndDuplicateKeys) {
+  EXPECT_EQ(error_of("tissues:\n  - name: skin\n    patch: {}\n  - name: skin\n    patch: {}\n"),
+            "s.yaml:4: tissues[1].name: duplicate tissue name 'skin' (first on line 2)");
+  EXPECT_EQ(error_of(std::string("dt: 0.001\ndt: 0.002\n") + kOneTissue),
+            "s.yaml:2: dt: duplicate key (first on line 1)");
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {}\n    anchors: [1, 2, 1]\n"),
+            "s.yaml:4: tissues[0].anchors[2]: 1 is listed twice");
+}
+
+TEST(SceneErrors, ExactlyOneOfPatchAndMesh) {
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {}\n    mesh: {file: liver.msh}\n",
+                     PALPATE_SHARED_DATA_DIR "/meshes"),
+            "s.yaml:4: tissues[0]: has both 'patch' and 'mesh'; expected exactly one");
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n  - name: b\n    patch: {}\n"),
+            "s.yaml:2: tissues[0]: has neither 'patch' nor 'mesh'; expected exactly one");
+}
+
+TEST(SceneErrors, WaypointTimesMustNotGoBack) {
+  EXPECT_EQ(error_of(std::string("device:\n  waypoints:\n    - {t: 0, position: [0, 0, 0]}\n"
+                                 "    - {t: 2, position: [0, 0, 0]}\n    - {t: 1.5, position: [0, 0, 0]}\n") +
+                     kOneTissue),
+            "s.yaml:5: device.waypoints[2].t: time 1.5 s goes back (previous waypoint at 2 s); "
+            "expected non-decreasing times");
+  EXPECT_EQ(error_of(std::string("device:\n  kind: openhaptics\n  waypoints:\n    - {t: 0, position: [0, 0, 0]}\n") +
+                     kOneTissue),
+            "s.yaml:3: device.waypoints: only a scripted device follows waypoints (kind is 'openhaptics')");
+}
+
+TEST(SceneErrors, NanAndInfinityAreRejected) {
+  EXPECT_EQ(error_of(std::string("duration: .nan\n") + kOneTissue),
+            "s.yaml:1: duration: expected a finite number (s), got '.nan'");
+  EXPECT_EQ(error_of(std::string("tool: {radius: .inf}\n") + kOneTissue),
+            "s.yaml:1: tool.radius: expected a finite number (m), got '.inf'");
+  EXPECT_EQ(error_of(std::string("camera: {target: [0, -.inf, 0]}\n") + kOneTissue),
+            "s.yaml:1: camera.target[1]: expected a finite number (m), got '-.inf'");
+  EXPECT_EQ(error_of(std::string("dt: nan\n") + kOneTissue), "s.yaml:1: dt: expected a finite number (s), got 'nan'");
+  EXPECT_EQ(error_of(std::string("duration: 1e400\n") + kOneTissue),
+            "s.yaml:1: duration: expected a finite number (s), got '1e400'");
+}
+
+TEST(SceneErrors, CrossFieldChecks) {
+  EXPECT_EQ(error_of(std::string("duration: 0.01\ndt: 0.05\n") + kOneTissue),
+            "s.yaml:2: dt: 0.05 s exceeds duration 0.01 s; expected dt <= duration");
+  EXPECT_EQ(error_of(std::string("tool:\n  kind: needle\n  length: 0\n") + kOneTissue),
+            "s.yaml:3: tool.length: a needle needs a length > 0 m, got 0 m");
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {spacing: 0.002}\n    material:\n"
+                     "      max_separation: 0.002\n"),
+            "s.yaml:5: tissues[0].material.max_separation: 0.002 m must exceed the patch spacing 0.002 m");
+  // The default max_separation (1.6 mm) against a coarser patch, with no material section.
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {spacing: 0.002}\n"),
+            "s.yaml:2: tissues[0].material.max_separation: the default 0.0016 m must exceed the patch spacing "
+            "0.002 m; set it");
+  // A mass-spring patch has no separation rule.
+  EXPECT_TRUE(parse_scene("tissues:\n  - {name: a, model: mass_spring, patch: {spacing: 0.002}}\n", "s.yaml").ok());
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch:\n      spacing: 0.01\n      width: 0.005\n"),
+            "s.yaml:5: tissues[0].patch.width: 0.005 m is less than the spacing 0.01 m; expected at least one "
+            "spacing");
+  EXPECT_EQ(error_of(std::string("camera: {position: [1, 1, 1], target: [1, 1, 1]}\n") + kOneTissue),
+            "s.yaml:1: camera.target: must differ from camera.position");
+  EXPECT_EQ(error_of(std::string("device:\n  trajectory: trajectory.csv\n  waypoints:\n"
+                                 "    - {t: 0, position: [0, 0, 0]}\n") + kOneTissue),
+            "s.yaml:2: device.trajectory: give either 'waypoints' or 'trajectory', not both");
+}
+
+TEST(SceneErrors, MissingInputFilesNameKeyAndResolvedPath) {
+  const fs::path base = kTestData;
+  EXPECT_EQ(error_of("tissues:\n  - name: a\n    mesh:\n      file: meshes/none.msh\n", base),
+            "s.yaml:4: tissues[0].mesh.file: file not found: " + (base / "meshes/none.msh").string() +
+                " (relative paths are resolved against " + base.string() + ")");
+  EXPECT_EQ(error_of(std::string("device: {trajectory: gone.csv}\n") + kOneTissue, base),
+            "s.yaml:1: device.trajectory: file not found: " + (base / "gone.csv").string() +
+                " (relative paths are resolved against " + base.string() + ")");
+  EXPECT_EQ(error_of(std::string("device: {kind: replay, recording: /nowhere/run.csv}\n") + kOneTissue, base),
+            "s.yaml:1: device.recording: file not found: /nowhere/run.csv (relative paths are resolved against " +
+                base.string() + ")");
+  // Files that exist load, resolved against the base directory.
+  auto ok = parse_scene(std::string("device: {trajectory: trajectory.csv}\n") + kOneTissue, "s.yaml", base);
+  ASSERT_TRUE(ok.ok()) << ok.error().message;
+  EXPECT_EQ(ok->device.trajectory, base / "trajectory.csv");
+  auto replay = parse_scene(std::string("device: {kind: replay, recording: recording.csv}\n") + kOneTissue, "s.yaml", base);
+  ASSERT_TRUE(replay.ok()) << replay.error().message;
+  EXPECT_EQ(replay->device.recording, base / "recording.csv");
+}
+
+TEST(SceneLoad, MissingFileAndDirectory) {
+  auto r = palpate::load_scene("/nonexistent/dir/scene.yaml");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().message, "/nonexistent/dir/scene.yaml: cannot open scene file (No such file or directory)");
+  auto d = palpate::load_scene(kTestData);
+  ASSERT_FALSE(d.ok());
+  EXPECT_EQ(d.error().message, kTestData.string() + ": is a directory; expected a YAML scene file");
+}
+
+TEST(SceneLoad, ErrorsNameTheFileAsGiven) {
+  const fs::path file = fs::temp_directory_path() / "palpate_test_scene_bad.yaml";
+  {
+    std::ofstream out(file);
+    out << "name: x\ntissues:\n  - name: a\n    patch: {widht: 0.02}\n";
+  }
+  auto r = palpate::load_scene(file);
+  fs::remove(file);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().message.substr(0, file.string().size() + 63),
+            file.string() + ":4: tissues[0].patch.widht: unknown key (did you mean 'width'?)");
+}
+
+TEST(SceneExamples, EveryDataSceneLoads) {
+  const fs::path dir = PALPATE_SOURCE_DIR "/data/scenes";
+  std::set<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    if (entry.path().extension() != ".yaml") continue;
+    auto r = palpate::load_scene(entry.path());
+    EXPECT_TRUE(r.ok()) << r.error().message;
+    if (r.ok()) {
+      EXPECT_FALSE(r->tissues.empty());
+      EXPECT_EQ(r->file, entry.path());
+    }
+    names.insert(entry.path().filename().string());
+  }
+  for (const char* want : {"default.yaml", "probe.yaml", "liver-springs.yaml", "liver-probe.yaml"})
+    EXPECT_TRUE(names.count(want)) << want << " missing from data/scenes";
+}
+
+TEST(SceneExamples, DefaultIsTheNeedleThroughThreeLayers) {
+  auto r = palpate::load_scene(PALPATE_SOURCE_DIR "/data/scenes/default.yaml");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->tool.kind, "needle");
+  EXPECT_EQ(r->tool.radius, 0.0004);
+  EXPECT_EQ(r->tool.length, 0.08);
+  EXPECT_EQ(r->duration, 4.0);
+  ASSERT_EQ(r->tissues.size(), 3u);
+  const double ys[] = {0.0, -0.004, -0.012};
+  for (size_t i = 0; i < 3; ++i) {
+    ASSERT_TRUE(r->tissues[i].patch.has_value());
+    EXPECT_EQ(r->tissues[i].patch->center.y(), ys[i]) << r->tissues[i].name;
+  }
+  const auto& skin = r->tissues[0].charged;
+  const auto& fat = r->tissues[1].charged;
+  const auto& wall = r->tissues[2].charged;
+  EXPECT_GE(skin.puncture_force, 1.5);
+  EXPECT_LE(skin.puncture_force, 2.5);
+  EXPECT_LT(fat.puncture_force, skin.puncture_force);
+  EXPECT_GE(wall.puncture_force, 0.5);
+  EXPECT_LE(wall.puncture_force, 1.0);
+  // The needle starts above the skin, goes below the vessel wall, and comes back up.
+  const auto& w = r->device.waypoints;
+  ASSERT_GE(w.size(), 3u);
+  EXPECT_EQ(w.front().position.y(), 0.01);
+  EXPECT_EQ(w[1].t, 3.0);
+  EXPECT_EQ(w[1].position.y(), -0.02);
+  EXPECT_GT(w.back().position.y(), 0.0);
+  EXPECT_EQ(w.back().t, 4.0);
+  EXPECT_TRUE(r->camera.has_value());
+}
+
+TEST(SceneExamples, LiverScenesResolveToTheSharedMesh) {
+  const fs::path shared = fs::weakly_canonical(PALPATE_SHARED_DATA_DIR "/meshes/liver.msh");
+  for (const char* name : {"liver-springs.yaml", "liver-probe.yaml"}) {
+    auto r = palpate::load_scene(fs::path(PALPATE_SOURCE_DIR "/data/scenes") / name);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    ASSERT_EQ(r->tissues.size(), 1u);
+    const auto& t = r->tissues[0];
+    EXPECT_EQ(t.model, "mass_spring");
+    ASSERT_TRUE(t.mesh.has_value());
+    EXPECT_EQ(fs::weakly_canonical(t.mesh->file), shared) << name;
+    EXPECT_EQ(t.spring.topology, "tet_edges");
+    EXPECT_EQ(t.anchors, (std::vector<int>{3, 39, 64}));
+  }
+  auto sofa = palpate::load_scene(PALPATE_SOURCE_DIR "/data/scenes/liver-springs.yaml");
+  ASSERT_TRUE(sofa.ok());
+  EXPECT_EQ(sofa->tissues[0].mesh->scale, 1.0);
+  EXPECT_EQ(sofa->tissues[0].spring.stiffness, 4500);
+  EXPECT_EQ(sofa->tissues[0].spring.mass, 1.0);
+  EXPECT_EQ(sofa->tissues[0].spring.solver, "sparse");
+  EXPECT_EQ(sofa->dt, 0.02);
+  EXPECT_TRUE(sofa->tissues[0].spring.gravity);
+  auto probe = palpate::load_scene(PALPATE_SOURCE_DIR "/data/scenes/liver-probe.yaml");
+  ASSERT_TRUE(probe.ok());
+  EXPECT_EQ(probe->tissues[0].mesh->scale, 0.01);
+  EXPECT_EQ(probe->tool.kind, "sphere");
+}
+
+TEST(SceneReference, ListsEveryKeyWithItsDefault) {
+  const std::string md = palpate::scene_reference_markdown();
+  EXPECT_NE(md.find("| `dt` | number | s | `0.001` | [1e-05, 0.1] |  | "), std::string::npos);
+  EXPECT_NE(md.find("| `kind` | string |  | `\"sphere\"` |  | `sphere, needle` | "), std::string::npos);
+  EXPECT_NE(md.find("| `axis` | [x, y, z] |  | `[0, -1, 0]` | [-1, 1] |"), std::string::npos);
+  EXPECT_NE(md.find("| `name` | string |  | required |"), std::string::npos);
+  EXPECT_NE(md.find("| `tissues` | list of mappings |  | required |"), std::string::npos);
+  EXPECT_NE(md.find("| `hole_closes` | bool |  | `false` |"), std::string::npos);
+  EXPECT_NE(md.find("| `width` | integer | pixels | `800` | [16, 16384] |"), std::string::npos);
+  // Every key of every table appears as a row.
+  auto rows = [&](auto* def) {
+    for (const auto& p : palpate::param_table(def))
+      EXPECT_NE(md.find(std::string("| `") + p.key + "` |"), std::string::npos) << p.key;
+  };
+  rows(static_cast<const palpate::SceneDef*>(nullptr));
+  rows(static_cast<const palpate::ChargedMaterialDef*>(nullptr));
+  rows(static_cast<const palpate::SpringMaterialDef*>(nullptr));
+  rows(static_cast<const palpate::MeshRef*>(nullptr));
+}
+
+TEST(SceneReference, DocContainsTheCurrentGeneratedReference) {
+  const std::string doc = read_text(PALPATE_SOURCE_DIR "/docs/scene-format.md");
+  const std::string begin = "<!-- reference:begin -->\n", end = "<!-- reference:end -->";
+  const size_t b = doc.find(begin), e = doc.find(end);
+  ASSERT_NE(b, std::string::npos);
+  ASSERT_NE(e, std::string::npos);
+  ASSERT_LT(b, e);
+  EXPECT_EQ(doc.substr(b + begin.size(), e - b - begin.size()), palpate::scene_reference_markdown())
+      << "docs/scene-format.md is out of date: run scripts/update-scene-reference";
+}
+
+TEST(SceneReference, DocExampleSceneParses) {
+  const std::string doc = read_text(PALPATE_SOURCE_DIR "/docs/scene-format.md");
+  const size_t b = doc.find("```yaml\n");
+  ASSERT_NE(b, std::string::npos);
+  const size_t e = doc.find("```", b + 8);
+  ASSERT_NE(e, std::string::npos);
+  auto r = parse_scene(doc.substr(b + 8, e - b - 8), "scene-format.md", PALPATE_SOURCE_DIR "/data/scenes");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_GE(r->tissues.size(), 2u);
+}
