@@ -173,9 +173,16 @@ TEST_F(View, AProbeOffTheTissueIsAClearErrorNotAHang) {
   EXPECT_NE(r.out.find("--probe 1,1: no tissue surface under that pixel of the 400x300 window"), std::string::npos) << r.out;
 }
 
+TEST_F(View, NoDisplayIsAClearErrorWithItsOwnExitCode) {
+  Ran r = run("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(PALPATE_CLI) + " view " + scene_.string() +
+              " --frames 1 --exit");
+  EXPECT_EQ(r.code, 3) << r.out;
+  EXPECT_NE(r.out.find("palpate view: cannot"), std::string::npos) << r.out;
+}
+
 }  // namespace
 
-TEST(ViewCli, BadProbeAndMissingDisplayAreNamed) {
+TEST(ViewCli, BadProbeIsNamedAndHelpListsTheFlags) {
   Ran r = run(std::string(PALPATE_CLI) + " view " + PALPATE_SOURCE_DIR "/data/scenes/liver-probe.yaml --probe 1,2 --exit");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("--probe '1,2': expected x,y,depth"), std::string::npos) << r.out;

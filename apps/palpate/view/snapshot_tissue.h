@@ -25,7 +25,7 @@ namespace palpate::view {
 class SnapshotTissue final : public Tissue {
  public:
   explicit SnapshotTissue(std::unique_ptr<Tissue> inner);
-  ~SnapshotTissue() override = default;
+  ~SnapshotTissue() override;
   SnapshotTissue(const SnapshotTissue&) = delete;
   SnapshotTissue& operator=(const SnapshotTissue&) = delete;
 
@@ -44,6 +44,8 @@ class SnapshotTissue final : public Tissue {
   // Render thread: swap in the newest published copy (if any) and return it (never null: the
   // slots start with the rest state). `fresh` tells whether it is newer than the last call's.
   const TissueSnapshot& latest(bool* fresh = nullptr) noexcept;
+  // Render thread: the copy the last latest() returned, without looking for a newer one.
+  const TissueSnapshot& current() const noexcept { return slots_[front_]; }
   // Publish a copy now from the calling thread: only while nothing steps the tissue (before the
   // loop starts, after it stopped), e.g. after reset().
   void publish_now();
@@ -57,13 +59,14 @@ class SnapshotTissue final : public Tissue {
 
   std::unique_ptr<Tissue> inner_;
   // Triple buffer: the writer (stepping thread) fills slots_[back_] and swaps it with the middle;
-  // the reader (render thread) swaps its front with the middle when the middle is fresh.
+  // the reader (render thread) swaps its front with the middle when the middle is fresh. Each is
+  // touched at most once per displayed frame, so no cache-line padding is needed.
   static constexpr std::uint8_t kFresh = 0x4, kIndex = 0x3;
   std::array<TissueSnapshot, 3> slots_;
-  alignas(64) std::atomic<std::uint8_t> middle_{1};
-  alignas(64) std::uint8_t back_ = 0;   // owned by the writer
-  alignas(64) std::uint8_t front_ = 2;  // owned by the reader
-  alignas(64) std::atomic<bool> wanted_{true};
+  std::atomic<std::uint8_t> middle_{1};
+  std::uint8_t back_ = 0;   // owned by the writer
+  std::uint8_t front_ = 2;  // owned by the reader
+  std::atomic<bool> wanted_{true};
   std::atomic<std::uint64_t> published_{0};
   std::atomic<std::uint64_t> growths_{0};
 };

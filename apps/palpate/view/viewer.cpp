@@ -31,6 +31,7 @@
 #include <future>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace palpate::view {
@@ -216,7 +217,7 @@ class Viewer {
   // Display toggles.
   bool show_surface_ = true, show_particles_ = false, show_grid_ = false, show_links_ = false;
   bool show_tool_ = true, show_arrow_ = true;
-  float arrow_metres_per_newton_ = 0;  // set from the scene's size
+  float arrow_metres_per_newton_ = 0;  // m per √N: the arrow's length is this · √|F|; from the scene's size
 
   // Mouse as a haptic device.
   bool pressing_ = false;    // right button held: the tool follows the cursor into the tissue
@@ -463,7 +464,7 @@ void Viewer::draw_scene(int fb_width, int fb_height) {
   const double aspect = fb_height > 0 ? static_cast<double>(fb_width) / fb_height : 1.0;
   gl_->set_camera(camera_.projection_matrix(aspect) * camera_.view_matrix(), camera_.eye());
   for (size_t i = 0; i < tissues_.size(); ++i) {
-    const TissueSnapshot& s = tissues_[i]->latest();
+    const TissueSnapshot& s = tissues_[i]->current();  // the one update_views() tessellated
     const TissueView& v = views_[i];
     const Vec3f color = kTissueColors[i % std::size(kTissueColors)];
     const bool surface = show_surface_ && drawn_[i];
@@ -487,7 +488,9 @@ void Viewer::draw_scene(int fb_width, int fb_height) {
   }
   if (show_arrow_ && force_.norm() > 1e-4) {
     mesh.clear();
-    append_arrow(mesh, tip, force_ * arrow_metres_per_newton_, 0.004 * scene_size_);
+    // Length ∝ √|F|, so 0.05 N still shows and the device's 3.3 N stays on screen.
+    const double length = arrow_metres_per_newton_ * std::sqrt(force_.norm());
+    append_arrow(mesh, tip, force_.normalized() * length, 0.004 * scene_size_);
     gl_->triangles(mesh, kArrowColor, /*on_top=*/true);
   }
 }
@@ -636,7 +639,7 @@ int Viewer::run() {
   const CameraDef cam = scene_.camera.value_or(CameraDef{});
   camera_ = OrbitCamera::from(cam);
   scene_size_ = camera_.distance;
-  arrow_metres_per_newton_ = static_cast<float>(0.2 * scene_size_);
+  arrow_metres_per_newton_ = static_cast<float>(0.25 * scene_size_);  // m per √N
 
   DeviceLimits limits;
   limits.max_force = scene_.device.max_force;
@@ -710,6 +713,9 @@ int Viewer::run() {
     }
     glfwSwapBuffers(window_);
     ++frames;
+    // A scripted run has no vsync to pace it: cap it near 60 fps so software GL does not take the
+    // CPU the haptic thread needs.
+    if (options_.exit_after) std::this_thread::sleep_until(now + std::chrono::milliseconds(16));
     if (last) break;
     if (options_.exit_after && t > options_.timeout) {
       fmt::print(stderr, "palpate view: gave up after {:.0f} s ({} frames drawn, probe {})\n", t, frames,
