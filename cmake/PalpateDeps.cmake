@@ -17,6 +17,15 @@ add_library(palpate_gmsh INTERFACE)
 target_include_directories(palpate_gmsh SYSTEM INTERFACE ${GMSH_INCLUDE_DIR})
 target_link_libraries(palpate_gmsh INTERFACE ${GMSH_LIBRARY})
 
+# Off-screen rendering (src/render): Mesa's OSMesa (software OpenGL) and stb_image_write (PNG),
+# neither with a CMake package on Debian.
+find_path(OSMESA_INCLUDE_DIR GL/osmesa.h REQUIRED)
+find_library(OSMESA_LIBRARY NAMES OSMesa REQUIRED)
+find_path(STB_INCLUDE_DIR stb/stb_image_write.h REQUIRED)
+add_library(palpate_osmesa INTERFACE)
+target_include_directories(palpate_osmesa SYSTEM INTERFACE ${OSMESA_INCLUDE_DIR} ${STB_INCLUDE_DIR})
+target_link_libraries(palpate_osmesa INTERFACE ${OSMESA_LIBRARY})
+
 if(PALPATE_BUILD_TESTS)
   find_package(GTest REQUIRED)
 endif()
