@@ -485,3 +485,30 @@ TEST(ChargedStep, AHoleStaysOpenOrClosesAsTheMaterialSays) {
     }
   }
 }
+
+// A needle pushed straight in off a lattice point (an irregular ring of reversed charges): once
+// in the track, it feels the pull along its axis and friction, but no sideways force — a hand
+// holding a needle on its line must not be pushed aside.
+TEST(ChargedStep, NeedleOnItsTrackFeelsNoSidewaysForce) {
+  ChargedModel m = flat(0.03);
+  ChargedState s = make_charged_state(m);
+  const Vec3 at = m.origin(size_t(central_particle(m))) + Vec3(0.00031, 0, 0.00017);
+  ChargedHip needle;
+  needle.shaft_length = 0.05;
+  needle.velocity = Vec3(0, -0.01, 0);
+  bool punctured = false;
+  double worst_lateral = 0, largest = 0;
+  for (double y = 0.005; y > -0.012; y -= 1e-5) {
+    needle.position = Vec3(at.x(), y, at.z());
+    const Vec3 f = step(m, s, needle, kDt);
+    if (punctured) {  // from the tick after the puncture on
+      worst_lateral = std::max(worst_lateral, std::hypot(f.x(), f.z()));
+      largest = std::max(largest, f.norm());
+    }
+    TissueEvent ev[4];
+    punctured = punctured || drain_events(s, ev) > 0;
+  }
+  ASSERT_TRUE(punctured);
+  EXPECT_GT(largest, 0.05);
+  EXPECT_LT(worst_lateral, 1e-9) << "largest force after puncture " << largest;
+}

@@ -101,4 +101,26 @@ std::optional<Eigen::Vector2d> project_to_pixel(const CameraDef& camera, const V
 // neighbours: the control net drawn as lines.
 std::vector<std::array<int, 2>> grid_lines(int rows, int cols);
 
+
+// --- Frames of a scene: tissue snapshots drawn as their smooth surfaces, the tool, the force.
+struct TissueSnapshot;
+
+struct FrameOptions {
+  bool particles = false;   // the particles / masses as points
+  bool links = false;       // neighbour links or springs as lines
+  int resolution = 6;       // Bézier segments per patch edge (grids) / PN level (meshes)
+};
+
+// Draw one frame: each tissue's surface (a grid snapshot as the seed's Bézier patches, a
+// triangle snapshot smoothed with PN triangles), the tool at `tip`, the force arrow, from the
+// scene's camera (or a camera framing every snapshot when the scene has none). Allocates:
+// call it off the haptic thread, from copied snapshots.
+Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
+                                const Vec3& tip, const Vec3& force, const FrameOptions& options,
+                                std::vector<std::vector<float>>& storage,
+                                std::vector<std::vector<uint32_t>>& index_storage);
+Status render_frame_png(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
+                        const Vec3& tip, const Vec3& force, const std::filesystem::path& file,
+                        const FrameOptions& options = {});
+
 }  // namespace palpate

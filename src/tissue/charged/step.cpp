@@ -157,7 +157,11 @@ bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, cons
   for (ChargedHole& hole : s.holes) {
     if (!hole.open) continue;
     Vec3 q;
-    const bool now = segment_distance(tail, tip, hole.center, q) < R;
+    // Hysteresis: a tool leaves a track only once it is clear of the patch's reach (R + D), so
+    // a withdrawing needle is not re-indented from the inner side by the still-displaced
+    // particles around the hole (that gave force spikes of ~3 N on the way out).
+    const double reach = hole.in_track ? rho : R;
+    const bool now = segment_distance(tail, tip, hole.center, q) < reach;
     if (hole.in_track && !now) {
       push_event(s, TissueEvent{s.time, "exit", tissue, 0.0, 0.0});
       if (m.material.hole_closes) {  // the particles' charges return to normal: the hole heals
@@ -354,12 +358,25 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
       if (!hole.in_track) continue;
       Vec3 q;
       segment_distance(tail, h, hole.center, q);  // shaft point nearest the hole's centre
+      const Vec3 before = force;
       for_each_candidate(m, q, R + D, [&](int i) {
         if (!(s.flags[static_cast<size_t>(i)] & kReversed)) return;
         Vec3 qi;  // the shaft point nearest this particle
         segment_distance(tail, h, s.position(static_cast<size_t>(i)), qi);
         attract(i, qi);
       });
+      // The reversed charges pull the tool along its axis (the snap into the hole). Sideways,
+      // the sum over an irregular ring of reversed particles does not cancel and would push a
+      // needle held on its track with a constant force (1–2 N in the CVC scene): instead the
+      // track centres the shaft, a spring from the shaft to the track's line of stiffness
+      // puncture_force / R (so an offset of R costs the puncture force), zero on the line.
+      const Vec3 pulled = force - before;
+      force = before + pulled.dot(axis) * axis;
+      Vec3 off = q - hole.center;
+      off -= off.dot(hole.axis) * hole.axis;
+      const double off_norm = off.norm();
+      const double k_track = mat.puncture_force / R;
+      if (off_norm > 0) force -= k_track * std::min(off_norm, R) * (off / off_norm);
       // Friction of the track on the tool (Okamura et al. 2004's shaft friction, Karnopp-like
       // but smoothed): opposes the axial velocity in both directions.
       const double v_axial = hip.velocity.dot(axis);
