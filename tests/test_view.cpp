@@ -3,9 +3,7 @@
 // dents the tissue, shows the force arrow and reports the force, and it exits cleanly.
 #include <gtest/gtest.h>
 
-#define STB_IMAGE_STATIC
-#define STB_IMAGE_IMPLEMENTATION
-#include <stb/stb_image.h>
+#include "png_read.h"
 
 #include <array>
 #include <cstdio>
@@ -44,21 +42,8 @@ Ran view(const std::string& args) {
              " view " + args);
 }
 
-struct Png {
-  int width = 0, height = 0;
-  std::vector<unsigned char> rgb;  // (height x width x 3)
-  const unsigned char* at(int x, int y) const { return &rgb[(static_cast<size_t>(y) * width + x) * 3]; }
-};
-
-Png load_png(const fs::path& file) {
-  Png png;
-  int channels = 0;
-  unsigned char* data = stbi_load(file.c_str(), &png.width, &png.height, &channels, 3);
-  if (!data) return png;
-  png.rgb.assign(data, data + static_cast<size_t>(png.width) * png.height * 3);
-  stbi_image_free(data);
-  return png;
-}
+using palpate::test::load_png;
+using palpate::test::Png;
 
 // The viewer's background, (0.12, 0.13, 0.16) in 8 bits.
 bool is_background(const unsigned char* p) {

@@ -3,9 +3,9 @@
 #include <gtest/gtest.h>
 
 // The viewer lives in the app (it links GUI libraries the test binary must not); these two
-// sources of it use only palpate's public headers, so they are compiled in here.
+// source of it uses only palpate's public headers, so it is compiled in here.
 #include "../apps/palpate/view/camera.cpp"
-#include "../apps/palpate/view/snapshot_tissue.cpp"
+#include <palpate/snapshot_tissue.h>
 
 #include <atomic>
 #include <cmath>
@@ -122,7 +122,7 @@ class CountingTissue final : public palpate::Tissue {
 };
 
 TEST(ViewSnapshot, StartsAtRestAndForwardsTheStep) {
-  palpate::view::SnapshotTissue t(std::make_unique<CountingTissue>(10));
+  palpate::SnapshotTissue t(std::make_unique<CountingTissue>(10));
   bool fresh = true;
   const palpate::TissueSnapshot& s = t.latest(&fresh);
   EXPECT_FALSE(fresh);
@@ -144,7 +144,7 @@ TEST(ViewSnapshot, StartsAtRestAndForwardsTheStep) {
 }
 
 TEST(ViewSnapshot, ReaderNeverSeesATornCopyAndSteadyStateNeverGrowsArrays) {
-  palpate::view::SnapshotTissue t(std::make_unique<CountingTissue>(2000));
+  palpate::SnapshotTissue t(std::make_unique<CountingTissue>(2000));
   std::atomic<bool> stop{false};
   std::thread stepper([&] {
     while (!stop) t.step({}, 0.001);

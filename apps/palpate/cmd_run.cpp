@@ -24,6 +24,8 @@ struct RunArgs {
   std::string recording;    // overrides device.recording (replay)
   std::string coupling;     // overrides device.coupling
   double physics_rate = 0;  // Hz; > 0 steps every tissue on its own thread at this rate
+  int frames = 0;
+  FrameOptions frame;
 };
 
 int run_command(const RunArgs& a) {
@@ -42,6 +44,8 @@ int run_command(const RunArgs& a) {
   if (!a.out.empty()) opt.out = a.out;
   opt.realtime = a.realtime;
   if (a.physics_rate > 0) opt.physics_dt.assign(scene->tissues.size(), 1.0 / a.physics_rate);
+  opt.frames = a.frames;
+  opt.frame_options = a.frame;
   const bool bar = !a.quiet && stderr_is_terminal();
   if (bar) {
     opt.progress = [](double f) {
@@ -75,6 +79,13 @@ int run_command(const RunArgs& a) {
       fmt::print("event      {:.3f} s  {:<9} {:<12} depth {:.2f} mm  force {:.3f} N\n", e.time,
                  e.kind, e.tissue, e.depth * 1e3, e.force);
     fmt::print("outputs    {}\n           {}\n", s.csv.string(), s.summary_json.string());
+    for (const auto& p : s.plots) fmt::print("           {}\n", p.string());
+    for (const RunFrame& f : s.frames) fmt::print("           {}  (t = {:.3f} s)\n", f.file.string(), f.time);
+  }
+  if (!s.plot_error.empty()) fmt::print(stderr, "palpate run: no plots: {}\n", s.plot_error);
+  if (!s.frame_error.empty()) {
+    fmt::print(stderr, "palpate run: frames: {}\n", s.frame_error);
+    return 1;
   }
   return 0;
 }
@@ -101,6 +112,15 @@ void add_run_command(CLI::App& app) {
                   "Hz: step the tissues on their own thread at this rate, rendering the force at 1 kHz "
                   "from a linearised contact (multi-rate)")
       ->check(CLI::Range(1.0, 100000.0));
+  run->add_option("--frames", args->frames,
+                  "Write N PNG frames (frame_000.png, ...) evenly spaced over the run, drawn "
+                  "off-screen from the scene's camera")
+      ->check(CLI::NonNegativeNumber);
+  run->add_flag("--frame-particles", args->frame.particles, "Frames: draw the particles / masses");
+  run->add_flag("--frame-links", args->frame.links, "Frames: draw neighbour links / springs");
+  run->add_option("--frame-resolution", args->frame.resolution,
+                  "Frames: Bézier segments per patch edge (grids) or PN level (meshes)")
+      ->check(CLI::Range(1, 32));
   run->callback([args] { throw CLI::RuntimeError(run_command(*args)); });
 }
 

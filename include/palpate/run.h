@@ -3,6 +3,7 @@
 
 #include <palpate/core.h>
 #include <palpate/haptics.h>
+#include <palpate/render.h>
 #include <palpate/safety.h>
 #include <palpate/scene.h>
 
@@ -23,6 +24,17 @@ struct RunOptions {
   bool realtime_priority = true;  // realtime: ask for SCHED_FIFO (ignored when not permitted)
   std::vector<double> physics_dt; // s per tissue (by index); > 0 steps it on its own thread at
                                   // that period (multi-rate); missing or 0 = every haptic tick
+  // Frames: `frames` PNG images (frame_000.png, ...) evenly spaced over the run, the first after
+  // its first tick and the last at its end, drawn off-screen from the tissues' snapshots with the
+  // tool and force of that tick. In a realtime run they are drawn on this thread while the haptic
+  // thread runs (hand-over through SnapshotTissue: the loop never waits for them).
+  int frames = 0;
+  FrameOptions frame_options;
+};
+
+struct RunFrame {
+  double time = 0;               // s, the tick the frame shows
+  std::filesystem::path file;
 };
 
 struct RunEvent {
@@ -47,6 +59,8 @@ struct RunSummary {
   std::filesystem::path csv, summary_json;        // where the outputs went
   std::vector<std::filesystem::path> plots;       // PNG plots written, if any
   std::string plot_error;                         // why plots are missing, if they are
+  std::vector<RunFrame> frames;                   // frames written, if asked for
+  std::string frame_error;                        // why frames are missing, if they are
 };
 
 // Run `scene` for its duration at its fixed tick, with its device; stream `run.csv` (through

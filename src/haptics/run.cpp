@@ -2,7 +2,9 @@
 #include <palpate/device.h>
 #include <palpate/haptics.h>
 #include <palpate/run.h>
+#include <palpate/render.h>
 #include <palpate/safety.h>
+#include <palpate/snapshot_tissue.h>
 #include <palpate/tissue.h>
 
 #include "io/plots.h"
@@ -71,6 +73,50 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   const double dt = scene.dt;
   const auto ticks = static_cast<std::uint64_t>(std::llround(scene.duration / dt));
   const fs::path out = options.out.empty() ? scene.output : options.out;
+  if (options.frames < 0 || std::uint64_t(options.frames) > ticks)
+    return Error{where + ": frames must be between 0 and the run's " + std::to_string(ticks) +
+                 " ticks, not " + std::to_string(options.frames)};
+
+  // Frames: each tissue hands its drawn state over through a SnapshotTissue (allocation-free on
+  // the stepping thread); frame k is taken after frame_target(k) ticks have run.
+  const auto nframes = static_cast<size_t>(options.frames);
+  std::vector<SnapshotTissue*> snaps;
+  if (nframes > 0) {
+    for (auto& t : tissues) {
+      auto wrapped = std::make_unique<SnapshotTissue>(std::move(t));
+      snaps.push_back(wrapped.get());
+      t = std::move(wrapped);
+    }
+  }
+  auto frame_target = [&](size_t k) -> std::uint64_t {
+    if (nframes == 1) return ticks;
+    return 1 + static_cast<std::uint64_t>(
+                   std::llround(double(k) * double(ticks - 1) / double(nframes - 1)));
+  };
+  const int digits = nframes > 1000 ? int(std::to_string(nframes - 1).size()) : 3;
+  std::vector<RunFrame> frames;
+  std::string frame_error;
+  std::vector<TissueSnapshot> frame_snaps(snaps.size());
+  // Draw frame k from the newest copies; `direct`: nothing steps the tissues now (headless), so a
+  // tissue that has not published since the request (a multi-rate one) is read directly.
+  auto take_frame = [&](size_t k, bool direct) {
+    SnapshotStamp tool;
+    Vec3 force = Vec3::Zero();
+    for (size_t i = 0; i < snaps.size(); ++i) {
+      bool fresh = false;
+      frame_snaps[i] = snaps[i]->latest(&fresh);
+      if (!fresh && direct) snaps[i]->snapshot(frame_snaps[i]);
+      const SnapshotStamp& st = snaps[i]->current_stamp();
+      force += st.force;
+      if (st.stepped && (!tool.stepped || st.time > tool.time)) tool = st;
+    }
+    if (!frame_error.empty()) return;
+    const fs::path file = out / fmt::format("frame_{:0{}}.png", k, digits);
+    if (Status s = render_frame_png(scene, frame_snaps, tool.tip, force, file, options.frame_options); !s)
+      frame_error = s.error().message;
+    else
+      frames.push_back({tool.time, file});
+  };
 
   LoopSettings ls;
   ls.dt = dt;
@@ -98,19 +144,58 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   HapticLoop& loop = **built;
 
   // --- the run: the loop's own thread paced by the wall clock, or ticks as fast as they go here.
+  size_t next_frame = 0;
   if (options.realtime) {
+    // This thread reports progress and draws the frames; the haptic thread never waits for it.
+    // A frame is requested a few ticks ahead of its target (the request is served by the next
+    // step), and the run's last frame, if the loop ended first, is read after it stopped.
     if (Status s = loop.start(); !s) return s.error();
+    bool requested = false;
+    std::vector<char> got(snaps.size(), 0);
+    auto last_progress = std::chrono::steady_clock::now();
     for (LoopStats st = loop.stats(); st.running; st = loop.stats()) {
-      if (options.progress) options.progress(double(st.ticks) / double(std::max<std::uint64_t>(1, ticks)));
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      const auto now = std::chrono::steady_clock::now();
+      if (options.progress && now - last_progress > std::chrono::milliseconds(50)) {
+        options.progress(double(st.ticks) / double(std::max<std::uint64_t>(1, ticks)));
+        last_progress = now;
+      }
+      if (next_frame < nframes && !requested && st.ticks + 3 >= frame_target(next_frame)) {
+        for (SnapshotTissue* t : snaps) t->request();
+        std::fill(got.begin(), got.end(), 0);
+        requested = true;
+      }
+      if (requested) {
+        bool all = true;
+        for (size_t i = 0; i < snaps.size(); ++i) {
+          bool fresh = false;
+          if (!got[i]) snaps[i]->latest(&fresh);
+          got[i] = got[i] || fresh;
+          all = all && got[i];
+        }
+        if (all) {
+          take_frame(next_frame++, false);
+          requested = false;
+          continue;
+        }
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(next_frame < nframes ? 1 : 50));
     }
     loop.wait();
+    for (; next_frame < nframes; ++next_frame) take_frame(next_frame, true);
     if (options.progress) options.progress(1.0);
   } else {
     const std::uint64_t chunk = std::max<std::uint64_t>(1, ticks / 100);
     for (std::uint64_t done = 0; done < ticks;) {
-      const std::uint64_t n = std::min(chunk, ticks - done);
-      loop.run_headless(n);
+      std::uint64_t n = std::min(chunk, ticks - done);
+      if (next_frame < nframes) n = std::min(n, frame_target(next_frame) - done);
+      if (next_frame < nframes && done + n == frame_target(next_frame)) {
+        if (n > 1) loop.run_headless(n - 1);
+        for (SnapshotTissue* t : snaps) t->request();
+        loop.run_headless(1);
+        take_frame(next_frame++, true);
+      } else {
+        loop.run_headless(n);
+      }
       done += n;
       if (options.progress) options.progress(double(done) / double(ticks));
     }
@@ -193,6 +278,14 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   j["outputs"]["plots"] = nlohmann::json::array();
   for (const auto& p : summary.plots) j["outputs"]["plots"].push_back(p.filename().string());
   if (!summary.plot_error.empty()) j["outputs"]["plot_error"] = summary.plot_error;
+  summary.frames = std::move(frames);
+  summary.frame_error = std::move(frame_error);
+  if (nframes > 0) {
+    j["outputs"]["frames"] = nlohmann::json::array();
+    for (const RunFrame& f : summary.frames)
+      j["outputs"]["frames"].push_back({{"file", f.file.filename().string()}, {"time_s", f.time}});
+    if (!summary.frame_error.empty()) j["outputs"]["frame_error"] = summary.frame_error;
+  }
   if (Status s = write_file_atomic(summary.summary_json, j.dump(2) + "\n"); !s) return s.error();
   return summary;
 }

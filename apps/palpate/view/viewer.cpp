@@ -7,7 +7,7 @@
 #include "gl_draw.h"
 #include "pose_feeder.h"
 #include "screenshot.h"
-#include "snapshot_tissue.h"
+#include <palpate/snapshot_tissue.h>
 
 #include <palpate/device.h>
 #include <palpate/haptics.h>

@@ -1,10 +1,10 @@
 // snapshot_tissue.cpp — SnapshotTissue: forwarding step() and the allocation-free hand-over of
 // drawn positions from the stepping thread to the render thread.
-#include "snapshot_tissue.h"
+#include <palpate/snapshot_tissue.h>
 
 #include <algorithm>
 
-namespace palpate::view {
+namespace palpate {
 
 namespace {
 
@@ -39,12 +39,12 @@ SnapshotTissue::~SnapshotTissue() = default;
 Vec3 SnapshotTissue::step(const ToolState& tool, double dt) noexcept {
   const Vec3 force = inner_->step(tool, dt);
   if (wanted_.load(std::memory_order_relaxed) && wanted_.exchange(false, std::memory_order_acquire)) {
-    copy_into_back();
+    copy_into_back({tool.time, tool.tip, force, true});
   }
   return force;
 }
 
-void SnapshotTissue::copy_into_back() noexcept {
+void SnapshotTissue::copy_into_back(const SnapshotStamp& stamp) noexcept {
   TissueSnapshot& s = slots_[back_];
   const size_t caps[4] = {s.points.capacity(), s.rows_cols.capacity(), s.triangles.capacity(),
                           s.links.capacity()};
@@ -60,6 +60,7 @@ void SnapshotTissue::copy_into_back() noexcept {
       s.triangles.capacity() != caps[2] || s.links.capacity() != caps[3]) {
     growths_.fetch_add(1, std::memory_order_relaxed);
   }
+  stamps_[back_] = stamp;
   back_ = middle_.exchange(static_cast<std::uint8_t>(back_ | kFresh), std::memory_order_acq_rel) & kIndex;
   published_.fetch_add(1, std::memory_order_relaxed);
 }
@@ -72,8 +73,8 @@ const TissueSnapshot& SnapshotTissue::latest(bool* fresh) noexcept {
 }
 
 void SnapshotTissue::publish_now() {
-  copy_into_back();
+  copy_into_back({});
   wanted_.store(true, std::memory_order_release);
 }
 
-}  // namespace palpate::view
+}  // namespace palpate

@@ -1,5 +1,6 @@
-// snapshot_tissue.h — SnapshotTissue: a Tissue that forwards to the real one and hands its drawn
-// positions to the render thread through a lock-free triple buffer, without allocating.
+// palpate/snapshot_tissue.h — SnapshotTissue: a Tissue that forwards to the real one and hands its
+// drawn positions (with the tool and force of that step) to a render thread through a lock-free
+// triple buffer, without allocating. Used by `palpate view` and by `palpate run --frames`.
 #pragma once
 
 #include <palpate/tissue.h>
@@ -10,7 +11,7 @@
 #include <memory>
 #include <string>
 
-namespace palpate::view {
+namespace palpate {
 
 // Wraps a tissue stepped by the haptic loop. The render thread never reads the inner tissue's
 // state: it calls request() once per frame; the next step() (on the haptic thread, or the tissue's
@@ -22,6 +23,14 @@ namespace palpate::view {
 // within capacity. Should a model ever grow its arrays past that, the copy would allocate: that is
 // counted (capacity_growths()) so the viewer can show it, never hidden.
 // Only one copy per displayed frame is made (at most ~60 per second, not 1000).
+// The step a published copy was taken at: the tool the tissue saw and the force it returned.
+struct SnapshotStamp {
+  double time = 0;           // s, the tool's time at that step
+  Vec3 tip = Vec3::Zero();   // m, the HIP
+  Vec3 force = Vec3::Zero(); // N, this tissue's force on the tool
+  bool stepped = false;      // false for a copy not made by step() (construction, publish_now)
+};
+
 class SnapshotTissue final : public Tissue {
  public:
   explicit SnapshotTissue(std::unique_ptr<Tissue> inner);
@@ -46,6 +55,8 @@ class SnapshotTissue final : public Tissue {
   const TissueSnapshot& latest(bool* fresh = nullptr) noexcept;
   // Render thread: the copy the last latest() returned, without looking for a newer one.
   const TissueSnapshot& current() const noexcept { return slots_[front_]; }
+  // Render thread: the step the copy last returned by latest() was taken at.
+  const SnapshotStamp& current_stamp() const noexcept { return stamps_[front_]; }
   // Publish a copy now from the calling thread: only while nothing steps the tissue (before the
   // loop starts, after it stopped), e.g. after reset().
   void publish_now();
@@ -55,7 +66,7 @@ class SnapshotTissue final : public Tissue {
   std::uint64_t capacity_growths() const noexcept { return growths_.load(std::memory_order_relaxed); }
 
  private:
-  void copy_into_back() noexcept;
+  void copy_into_back(const SnapshotStamp& stamp) noexcept;
 
   std::unique_ptr<Tissue> inner_;
   // Triple buffer: the writer (stepping thread) fills slots_[back_] and swaps it with the middle;
@@ -63,6 +74,7 @@ class SnapshotTissue final : public Tissue {
   // touched at most once per displayed frame, so no cache-line padding is needed.
   static constexpr std::uint8_t kFresh = 0x4, kIndex = 0x3;
   std::array<TissueSnapshot, 3> slots_;
+  std::array<SnapshotStamp, 3> stamps_;
   std::atomic<std::uint8_t> middle_{1};
   std::uint8_t back_ = 0;   // owned by the writer
   std::uint8_t front_ = 2;  // owned by the reader
@@ -71,4 +83,4 @@ class SnapshotTissue final : public Tissue {
   std::atomic<std::uint64_t> growths_{0};
 };
 
-}  // namespace palpate::view
+}  // namespace palpate
