@@ -43,6 +43,7 @@ int run_command(const RunArgs& a) {
   RunOptions opt;
   if (!a.out.empty()) opt.out = a.out;
   opt.realtime = a.realtime;
+  if (a.realtime) prepare_realtime_process();
   if (a.physics_rate > 0) opt.physics_dt.assign(scene->tissues.size(), 1.0 / a.physics_rate);
   opt.frames = a.frames;
   opt.frame_options = a.frame;
@@ -80,7 +81,13 @@ int run_command(const RunArgs& a) {
                  e.kind, e.tissue, e.depth * 1e3, e.force);
     fmt::print("outputs    {}\n           {}\n", s.csv.string(), s.summary_json.string());
     for (const auto& p : s.plots) fmt::print("           {}\n", p.string());
-    for (const RunFrame& f : s.frames) fmt::print("           {}  (t = {:.3f} s)\n", f.file.string(), f.time);
+    if (s.frames.size() <= 10) {
+      for (const RunFrame& f : s.frames) fmt::print("           {}  (t = {:.3f} s)\n", f.file.string(), f.time);
+    } else {
+      fmt::print("           {} frames: {} (t = {:.3f} s) ... {} (t = {:.3f} s)\n", s.frames.size(),
+                 s.frames.front().file.string(), s.frames.front().time, s.frames.back().file.string(),
+                 s.frames.back().time);
+    }
   }
   if (!s.plot_error.empty()) fmt::print(stderr, "palpate run: no plots: {}\n", s.plot_error);
   if (!s.frame_error.empty()) {

@@ -48,6 +48,7 @@ int view_command(ViewArgs& args) {
     args.options.probe = *p;
   }
   if (args.options.exit_after && args.options.frames < 1) args.options.frames = 1;
+  prepare_realtime_process();  // the viewer runs a realtime haptic loop beside its GL thread
   return view::run_viewer(*scene, args.options);
 }
 

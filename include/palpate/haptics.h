@@ -79,6 +79,18 @@ struct LoopStats {
   bool running = false;
 };
 
+// Process-wide settings for a realtime haptic thread, as realtime Linux applications make them
+// (call once at start, before threads and large allocations; the CLI's `run --realtime` and
+// `view` do): glibc malloc never hands memory back to the kernel nor serves large blocks with
+// mmap, so another thread's free (a renderer's frame buffers) never unmaps pages and interrupts
+// the haptic thread's core with a TLB shoot-down; and the process's memory is locked in RAM
+// (mlockall) when the memory-lock limit allows it, so the loop never takes a page fault to disk.
+struct RealtimeProcess {
+  bool malloc_pinned = false;  // mallopt accepted
+  bool memory_locked = false;  // mlockall succeeded
+};
+RealtimeProcess prepare_realtime_process() noexcept;
+
 // The haptic loop. Build it (everything that allocates happens here), then either start() a
 // realtime thread or call run_headless() on your own thread. Not copyable; stop() before
 // destroying the tissues or device.

@@ -1,9 +1,15 @@
-// pacing.cpp — the monotonic clock, the absolute-deadline sleep and the realtime priority request.
+// pacing.cpp — the monotonic clock, the absolute-deadline sleep, the realtime priority request and
+// the process-wide realtime settings.
 #include "haptics/pacing.h"
 
+#include <palpate/haptics.h>
+
 #include <cerrno>
+#include <malloc.h>
 #include <pthread.h>
 #include <sched.h>
+#include <sys/mman.h>
+#include <sys/resource.h>
 #include <time.h>
 
 namespace palpate {
@@ -34,6 +40,17 @@ bool try_realtime_priority(int priority) noexcept {
   sched_param p{};
   p.sched_priority = priority;
   return ::pthread_setschedparam(::pthread_self(), SCHED_FIFO, &p) == 0;
+}
+
+RealtimeProcess prepare_realtime_process() noexcept {
+  RealtimeProcess r;
+  r.malloc_pinned = ::mallopt(M_MMAP_MAX, 0) == 1 && ::mallopt(M_TRIM_THRESHOLD, -1) == 1;
+  // Locking all future pages too needs an unlimited memory-lock limit, or a large allocation
+  // would fail later; with a finite limit, nothing is locked.
+  rlimit lim{};
+  if (::getrlimit(RLIMIT_MEMLOCK, &lim) == 0 && lim.rlim_cur == RLIM_INFINITY)
+    r.memory_locked = ::mlockall(MCL_CURRENT | MCL_FUTURE) == 0;
+  return r;
 }
 
 }  // namespace palpate

@@ -16,6 +16,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <system_error>
@@ -149,6 +150,11 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     // This thread reports progress and draws the frames; the haptic thread never waits for it.
     // A frame is requested a few ticks ahead of its target (the request is served by the next
     // step), and the run's last frame, if the loop ended first, is read after it stopped.
+    // Mesa's software rasteriser (llvmpipe, behind OSMesa) starts one worker thread per core;
+    // beside a realtime haptic thread on a small machine they take its core and push the
+    // period's p99 from 1.09 to 2.6 ms (docs/benchmarks/haptics.md). Frames drawn beside the loop
+    // are rasterised on this thread alone, unless the user set LP_NUM_THREADS.
+    if (nframes > 0) ::setenv("LP_NUM_THREADS", "0", /*overwrite=*/0);
     if (Status s = loop.start(); !s) return s.error();
     bool requested = false;
     std::vector<char> got(snaps.size(), 0);
