@@ -24,7 +24,7 @@ test: build
 	ctest --preset $(PRESET)
 
 demo: build
-	$(CLI) run $(SCENE) --out $(DEMO_OUT)
+	$(CLI) run $(SCENE) --out $(DEMO_OUT) --frames 3
 
 bench: build
 	$(BUILD)/bench/palpate_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true

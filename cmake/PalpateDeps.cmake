@@ -7,6 +7,7 @@ find_package(CLI11 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(spdlog REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
+find_package(CGAL REQUIRED)  # isotropic remeshing for particles laid on a mesh (header-only)
 
 
 # Gmsh ships no CMake package on Debian: find its C++ API header and library.
@@ -23,6 +24,15 @@ find_library(METIS_LIBRARY NAMES metis REQUIRED)
 add_library(palpate_metis INTERFACE)
 target_include_directories(palpate_metis SYSTEM INTERFACE ${METIS_INCLUDE_DIR})
 target_link_libraries(palpate_metis INTERFACE ${METIS_LIBRARY})
+
+# Off-screen rendering (src/render): Mesa's OSMesa (software OpenGL) and stb_image_write (PNG),
+# neither with a CMake package on Debian.
+find_path(OSMESA_INCLUDE_DIR GL/osmesa.h REQUIRED)
+find_library(OSMESA_LIBRARY NAMES OSMesa REQUIRED)
+find_path(STB_INCLUDE_DIR stb/stb_image_write.h REQUIRED)
+add_library(palpate_osmesa INTERFACE)
+target_include_directories(palpate_osmesa SYSTEM INTERFACE ${OSMESA_INCLUDE_DIR} ${STB_INCLUDE_DIR})
+target_link_libraries(palpate_osmesa INTERFACE ${OSMESA_LIBRARY})
 
 if(PALPATE_BUILD_TESTS)
   find_package(GTest REQUIRED)

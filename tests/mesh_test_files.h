@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -31,6 +32,7 @@ class ScratchDir {
     std::filesystem::create_directories(dir_);
   }
   ~ScratchDir() {
+    if (std::getenv("PALPATE_KEEP_SCRATCH")) return;  // for looking at what a failing test wrote
     std::error_code ec;
     std::filesystem::remove_all(dir_, ec);
   }

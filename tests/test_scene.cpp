@@ -268,7 +268,8 @@ TEST(SceneErrors, UnknownKeySuggestsTheClosestAndListsValidKeys) {
   EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {}\n    material:\n      max_displacment: 0.01\n"),
             "s.yaml:5: tissues[0].material.max_displacment: unknown key (did you mean 'max_displacement'?); "
             "valid charged_particles material keys: max_displacement, elasticity, sphere_of_influence, "
-            "max_separation, particle_charge, hip_charge, puncture_force, hole_closes");
+            "max_separation, particle_charge, hip_charge, puncture_force, hole_closes, track_friction, "
+            "friction_velocity, mesh_spacing");
   // Far from every key: no suggestion; section keys are listed with the table's.
   EXPECT_EQ(error_of(std::string("colour: red\n") + kOneTissue),
             "s.yaml:1: colour: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, "

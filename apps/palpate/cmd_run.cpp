@@ -1,4 +1,5 @@
-// cmd_run.cpp — `palpate run SCENE [--out DIR]`: a headless run with the scene's device.
+// cmd_run.cpp — `palpate run SCENE [--out DIR] [--realtime] [--device KIND] [--coupling C]`: a run
+// with the scene's device, headless (as fast as it goes) or paced by the wall clock at 1 kHz.
 #include <palpate/palpate.h>
 
 #include "commands.h"
@@ -18,6 +19,13 @@ struct RunArgs {
   std::string scene;
   std::string out;
   bool quiet = false;
+  bool realtime = false;
+  std::string device;       // overrides device.kind
+  std::string recording;    // overrides device.recording (replay)
+  std::string coupling;     // overrides device.coupling
+  double physics_rate = 0;  // Hz; > 0 steps every tissue on its own thread at this rate
+  int frames = 0;
+  FrameOptions frame;
 };
 
 int run_command(const RunArgs& a) {
@@ -26,8 +34,19 @@ int run_command(const RunArgs& a) {
     fmt::print(stderr, "palpate run: {}\n", scene.error().message);
     return 2;
   }
+  if (!a.device.empty()) scene->device.kind = a.device;
+  if (!a.recording.empty()) {
+    scene->device.recording = a.recording;
+    if (a.device.empty()) scene->device.kind = "replay";
+  }
+  if (!a.coupling.empty()) scene->device.coupling = a.coupling;
   RunOptions opt;
   if (!a.out.empty()) opt.out = a.out;
+  opt.realtime = a.realtime;
+  if (a.realtime) prepare_realtime_process();
+  if (a.physics_rate > 0) opt.physics_dt.assign(scene->tissues.size(), 1.0 / a.physics_rate);
+  opt.frames = a.frames;
+  opt.frame_options = a.frame;
   const bool bar = !a.quiet && stderr_is_terminal();
   if (bar) {
     opt.progress = [](double f) {
@@ -48,11 +67,32 @@ int run_command(const RunArgs& a) {
     fmt::print("ticks      {} at {} ms\n", s.ticks, s.dt * 1e3);
     fmt::print("step time  median {:.1f} us, p99 {:.1f} us, max {:.1f} us\n", s.step_median * 1e6,
                s.step_p99 * 1e6, s.step_max * 1e6);
+    if (s.realtime)
+      fmt::print("period     median {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; {} deadline misses\n",
+                 s.period.median * 1e3, s.period.p99 * 1e3, s.period.max * 1e3, s.deadline_misses);
+    const SafetyCounters& c = s.safety;
+    if (c.non_finite + c.step_failed + c.overrun + c.stalled + c.device_failed > 0)
+      fmt::print("safety     non-finite {}, step failed {}, overrun {}, stalled {}, device failed {}\n",
+                 c.non_finite, c.step_failed, c.overrun, c.stalled, c.device_failed);
+    if (s.recorder_dropped > 0) fmt::print("recorder   {} rows dropped\n", s.recorder_dropped);
     fmt::print("max force  {:.3f} N\n", s.max_force);
     for (const RunEvent& e : s.events)
       fmt::print("event      {:.3f} s  {:<9} {:<12} depth {:.2f} mm  force {:.3f} N\n", e.time,
                  e.kind, e.tissue, e.depth * 1e3, e.force);
     fmt::print("outputs    {}\n           {}\n", s.csv.string(), s.summary_json.string());
+    for (const auto& p : s.plots) fmt::print("           {}\n", p.string());
+    if (s.frames.size() <= 10) {
+      for (const RunFrame& f : s.frames) fmt::print("           {}  (t = {:.3f} s)\n", f.file.string(), f.time);
+    } else {
+      fmt::print("           {} frames: {} (t = {:.3f} s) ... {} (t = {:.3f} s)\n", s.frames.size(),
+                 s.frames.front().file.string(), s.frames.front().time, s.frames.back().file.string(),
+                 s.frames.back().time);
+    }
+  }
+  if (!s.plot_error.empty()) fmt::print(stderr, "palpate run: no plots: {}\n", s.plot_error);
+  if (!s.frame_error.empty()) {
+    fmt::print(stderr, "palpate run: frames: {}\n", s.frame_error);
+    return 1;
   }
   return 0;
 }
@@ -61,11 +101,33 @@ int run_command(const RunArgs& a) {
 
 void add_run_command(CLI::App& app) {
   auto args = std::make_shared<RunArgs>();
-  CLI::App* run = app.add_subcommand("run", "Run a scene headless at its fixed tick; write run.csv and summary.json");
+  CLI::App* run = app.add_subcommand("run", "Run a scene at its fixed tick (headless, or --realtime); write run.csv and summary.json");
   run->add_option("scene", args->scene, "Scene file (YAML, see docs/scene-format.md)")
       ->required()->check(CLI::ExistingFile);
   run->add_option("--out,-o", args->out, "Output directory (default: the scene's `output`)");
   run->add_flag("--quiet,-q", args->quiet, "Print nothing but errors");
+  run->add_flag("--realtime", args->realtime,
+                "Pace the run by the wall clock on a 1 kHz haptic thread (same outputs, plus period "
+                "and deadline-miss statistics)");
+  run->add_option("--device", args->device, "Device backend instead of the scene's")
+      ->check(CLI::IsMember({"scripted", "replay", "openhaptics"}));
+  run->add_option("--replay", args->recording, "Play back a recorded run.csv (implies --device replay)")
+      ->check(CLI::ExistingFile);
+  run->add_option("--coupling", args->coupling, "Force rendering: direct (from the HIP) or virtual")
+      ->check(CLI::IsMember({"direct", "virtual"}));
+  run->add_option("--physics-rate", args->physics_rate,
+                  "Hz: step the tissues on their own thread at this rate, rendering the force at 1 kHz "
+                  "from a linearised contact (multi-rate)")
+      ->check(CLI::Range(1.0, 100000.0));
+  run->add_option("--frames", args->frames,
+                  "Write N PNG frames (frame_000.png, ...) evenly spaced over the run, drawn "
+                  "off-screen from the scene's camera")
+      ->check(CLI::NonNegativeNumber);
+  run->add_flag("--frame-particles", args->frame.particles, "Frames: draw the particles / masses");
+  run->add_flag("--frame-links", args->frame.links, "Frames: draw neighbour links / springs");
+  run->add_option("--frame-resolution", args->frame.resolution,
+                  "Frames: Bézier segments per patch edge (grids) or PN level (meshes)")
+      ->check(CLI::Range(1, 32));
   run->callback([args] { throw CLI::RuntimeError(run_command(*args)); });
 }
 

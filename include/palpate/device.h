@@ -1,16 +1,19 @@
 // palpate/device.h — haptic devices: what goes in (pose, velocity, buttons), what comes out
-// (force, torque), the device's limits, and the scripted backend.
+// (force, torque), the device's limits, and the backends (scripted, replay, virtual, openhaptics).
 #pragma once
 
 #include <palpate/core.h>
 #include <palpate/scene.h>
 
 #include <cstdint>
+#include <filesystem>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace palpate {
 
+// What a device can take, as data: the safety filter and the virtual coupling read these.
 struct DeviceLimits {
   double max_force = 3.3;         // N
   double max_force_rate = 200.0;  // N/s
@@ -18,6 +21,7 @@ struct DeviceLimits {
   double damping = 2.0;           // N·s/m
   Vec3 workspace_min = Vec3(-0.08, -0.06, -0.035);  // m (Geomagic Touch: 160 x 120 x 70 mm)
   Vec3 workspace_max = Vec3(0.08, 0.06, 0.035);
+  bool has_torque = false;        // whether write()'s torque reaches the hand (a Touch: no)
 };
 
 struct DeviceState {
@@ -25,7 +29,7 @@ struct DeviceState {
   Vec3 position = Vec3::Zero();          // m
   Quat orientation = Quat::Identity();
   Vec3 velocity = Vec3::Zero();          // m/s
-  std::uint32_t buttons = 0;
+  std::uint32_t buttons = 0;             // bit i = button i + 1 pressed
 };
 
 // A haptic device backend. read/write are called from the haptic thread: noexcept, no allocation.
@@ -58,7 +62,70 @@ class ScriptedDevice final : public Device {
 // Read a CSV trajectory (columns t,x,y,z; '#' comments and one header line allowed).
 Result<std::vector<Waypoint>> load_trajectory_csv(const std::filesystem::path& file);
 
-// The device a scene asks for.
+// One recorded tick of a session: what a replay plays back.
+struct RecordedSample {
+  double t = 0;                          // s
+  Vec3 position = Vec3::Zero();          // m
+  Quat orientation = Quat::Identity();
+  std::uint32_t buttons = 0;
+};
+
+// Read a run's CSV (`palpate run` writes it): a header naming the columns, then one row per tick.
+// Needs t, tool_x, tool_y, tool_z; uses tool_qw..tool_qz and buttons when present.
+Result<std::vector<RecordedSample>> load_recording_csv(const std::filesystem::path& file);
+
+// A recorded session played back tick for tick: read(t) gives the last row at or before t (rows
+// are ticks, so a replay at the recording's tick reproduces it exactly); velocity is the
+// difference to the previous row over its time step. Held at the last row.
+class ReplayDevice final : public Device {
+ public:
+  ReplayDevice(std::vector<RecordedSample> samples, DeviceLimits limits);
+  const DeviceLimits& limits() const override { return limits_; }
+  bool read(double t, DeviceState& out) noexcept override;
+  void write(const Vec3& force, const Vec3& torque) noexcept override;
+  const Vec3& last_force() const { return last_force_; }
+  size_t size() const { return samples_.size(); }
+
+ private:
+  std::vector<RecordedSample> samples_;
+  DeviceLimits limits_;
+  Vec3 last_force_ = Vec3::Zero();
+  size_t row_ = 0;  // cursor: ticks walk forward
+};
+
+// A device moved by another thread (the viewer's mouse, a test, a network peer): `set_pose` from
+// any one thread, `read` from the haptic thread; neither ever blocks (a lock-free triple buffer).
+// The last force written is readable back by the other side through `force`.
+class VirtualDevice final : public Device {
+ public:
+  explicit VirtualDevice(DeviceLimits limits = {});
+  ~VirtualDevice() override;
+  VirtualDevice(const VirtualDevice&) = delete;
+  VirtualDevice& operator=(const VirtualDevice&) = delete;
+  const DeviceLimits& limits() const override { return limits_; }
+  bool read(double t, DeviceState& out) noexcept override;
+  void write(const Vec3& force, const Vec3& torque) noexcept override;
+  // Producer side (one thread): the pose the haptic thread sees from its next read on.
+  void set_pose(const DeviceState& state) noexcept;
+  // The last force the haptic thread sent (N), from any thread.
+  Vec3 force() const noexcept;
+
+ private:
+  struct Exchange;
+  DeviceLimits limits_;
+  std::unique_ptr<Exchange> x_;
+};
+
+// Phantom Omni / Geomagic Touch through the vendor's HD library, loaded at run time with dlopen
+// (no SDK needed to build). The vendor's scheduler runs a servo callback at its own 1 kHz that
+// exchanges pose and force with this object through lock-free triple buffers; read/write never
+// block. HD works in millimetres: positions and velocities are converted to metres here.
+// `library`: file name or path of libHD.so; `config`: HD device configuration name, "" = default.
+// Errors say what is missing and how to run with the scripted device instead.
+Result<std::unique_ptr<Device>> open_openhaptics(const std::string& library, const std::string& config,
+                                                 const DeviceLimits& limits);
+
+// The device a scene asks for (scripted, replay or openhaptics).
 Result<std::unique_ptr<Device>> make_device(const SceneDef& scene);
 
 }  // namespace palpate

@@ -34,45 +34,64 @@ struct SurfaceRequirements {
   bool closed = false;    // every edge shared by exactly two triangles
 };
 
-// Load a surface: OBJ, STL (ASCII and binary), PLY, OFF (through assimp). Triangulated,
-// duplicate vertices merged, normals computed, validated; `scale` multiplies every coordinate.
+// Load a surface: OBJ, STL (ASCII and binary), PLY, OFF (through assimp; other formats assimp
+// reads are accepted too, untested). Triangulated, all meshes of the file concatenated, vertices
+// merged by exact position (corners that differ only in normal or UV become one vertex), normals
+// computed, validated against `need`; `scale` (> 0) multiplies every coordinate. A closed,
+// consistently oriented surface whose triangles face inward is turned outward. Errors start with
+// the file's path, e.g. "liver.obj: triangle 17 has vertex index 999 out of range [0, 181)".
 Result<SurfaceMesh> load_surface(const std::filesystem::path& file, double scale = 1.0,
                                  const SurfaceRequirements& need = {});
 
-// Load a tetrahedral mesh: Gmsh .msh (v1, v2, v4), TetGen .node/.ele (either file's path),
-// legacy VTK unstructured grid (.vtk). Validated: no empty mesh, no NaN/Inf, indices in range,
-// no degenerate or inverted tetrahedra.
+// Load a tetrahedral mesh: Gmsh .msh (v1, v2, v4 ASCII or binary, through Gmsh; vertices in node
+// tag order, only 4-node tetrahedra kept), TetGen .node/.ele (either file's path; 0- or 1-based;
+// quadratic elements keep their corners), legacy ASCII VTK unstructured grid (.vtk, file versions
+// up to 5.1; cells of type 10 kept). Validated: no empty mesh, no NaN/Inf, indices in range, no
+// degenerate or inverted tetrahedra. Errors name the file, and the line where the reader knows it.
 Result<TetMesh> load_tet(const std::filesystem::path& file, double scale = 1.0);
 
-// Validation on meshes built in memory; `where` names the source in the message.
+// Validation on meshes built in memory; `where` names the source at the head of the message.
+// Checks, in order: vertices exist and are finite; elements exist; indices in range; no element
+// with area (volume) below 1e-12 x mean edge² (edge³); tetrahedra positively oriented; for a
+// surface, `need.manifold`: no edge with more than two triangles or traversed twice the same way;
+// `need.closed`: no edge with more than two triangles and none with only one.
 Status validate(const SurfaceMesh& m, const std::string& where, const SurfaceRequirements& need = {});
 Status validate(const TetMesh& m, const std::string& where);
 
-// Recompute area-weighted unit vertex normals of a surface.
+// Recompute area-weighted unit vertex normals of a surface (a vertex no triangle uses gets 0).
 void compute_normals(SurfaceMesh& m);
 
-// Fill a closed, manifold surface with tetrahedra (Gmsh's mesher). `max_edge` (m) bounds the
-// tetrahedra's size, 0 = as the surface's edges; the result meets Gmsh's default quality bound.
+// Fill a closed, manifold surface with tetrahedra (Gmsh's Delaunay mesher). The surface's
+// triangles are kept as the boundary (not remeshed); its used vertices come first, in their order.
+// `max_edge` (m) bounds the tetrahedra's size, 0 = as the surface's edges. The result is
+// validated and positively oriented; an open or non-manifold surface is refused.
 Result<TetMesh> tetrahedralize(const SurfaceMesh& surface, double max_edge = 0.0);
 
-// The boundary triangles of a tetrahedral mesh, outward oriented, over the same vertices.
+// The boundary triangles of a tetrahedral mesh (faces used by one tetrahedron), outward oriented
+// (also for inverted tetrahedra), over the same vertices, in tetrahedron order; normals computed.
 SurfaceMesh boundary_surface(const TetMesh& m);
 
+// Lengths of a mesh's unique edges (the median of an even count is the mean of the middle two).
 struct EdgeStats {
   size_t count = 0;
   double min = 0, max = 0, mean = 0, median = 0;  // m
 };
 
-// Facts about a mesh, what `palpate info` prints.
+// Facts about a mesh, what `palpate info` prints. For a tetrahedral mesh, `triangles`, `closed`,
+// `manifold` and the edge counts describe its boundary surface; `edges` its own unique edges.
 struct MeshInfo {
   std::string kind;  // "surface" or "tetrahedral"
   size_t vertices = 0, triangles = 0, tetrahedra = 0;
-  Vec3 bbox_min = Vec3::Zero(), bbox_max = Vec3::Zero();
+  Vec3 bbox_min = Vec3::Zero(), bbox_max = Vec3::Zero();  // m, over all vertices
   bool closed = false, manifold = false;
-  size_t boundary_edges = 0, non_manifold_edges = 0;
-  double volume = 0;  // m³: enclosed volume of a closed surface, or sum of tetrahedra
+  size_t boundary_edges = 0;      // edges of one triangle
+  size_t non_manifold_edges = 0;  // edges of more than two triangles, or two in the same direction
+  double volume = 0;  // m³, signed: enclosed by a closed surface (divergence theorem; negative when
+                      // its triangles face inward), 0 for an open one; sum over tetrahedra
   EdgeStats edges;
 };
+
+// A mesh whose indices are out of range gets counts and bounding box only (validate() says why).
 
 MeshInfo describe(const SurfaceMesh& m);
 MeshInfo describe(const TetMesh& m);

@@ -1,9 +1,16 @@
 // palpate/palpate.h — everything in palpate's public API.
 #pragma once
 
+#include <palpate/charged.h>
 #include <palpate/core.h>
 #include <palpate/device.h>
+#include <palpate/haptics.h>
 #include <palpate/mesh.h>
+#include <palpate/render.h>
 #include <palpate/run.h>
+#include <palpate/safety.h>
 #include <palpate/scene.h>
+#include <palpate/snapshot_tissue.h>
+#include <palpate/spring.h>
+#include <palpate/surface.h>
 #include <palpate/tissue.h>

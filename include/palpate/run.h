@@ -1,9 +1,13 @@
-// palpate/run.h — a headless run of a scene at a fixed tick, with its outputs.
+// palpate/run.h — a run of a scene at a fixed tick (headless, or wall-clock paced), with its outputs.
 #pragma once
 
 #include <palpate/core.h>
+#include <palpate/haptics.h>
+#include <palpate/render.h>
+#include <palpate/safety.h>
 #include <palpate/scene.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -16,6 +20,21 @@ struct RunOptions {
   std::filesystem::path out;                         // output directory; "" = the scene's
   std::function<void(double fraction)> progress;     // called now and then, off the tick path
   bool plots = true;                                 // force_time.png, force_depth.png (gnuplot)
+  bool realtime = false;          // wall-clock paced on the haptic thread (1 tick per dt of real time)
+  bool realtime_priority = true;  // realtime: ask for SCHED_FIFO (ignored when not permitted)
+  std::vector<double> physics_dt; // s per tissue (by index); > 0 steps it on its own thread at
+                                  // that period (multi-rate); missing or 0 = every haptic tick
+  // Frames: `frames` PNG images (frame_000.png, ...) evenly spaced over the run, the first after
+  // its first tick and the last at its end, drawn off-screen from the tissues' snapshots with the
+  // tool and force of that tick. In a realtime run they are drawn on this thread while the haptic
+  // thread runs (hand-over through SnapshotTissue: the loop never waits for them).
+  int frames = 0;
+  FrameOptions frame_options;
+};
+
+struct RunFrame {
+  double time = 0;               // s, the tick the frame shows
+  std::filesystem::path file;
 };
 
 struct RunEvent {
@@ -31,14 +50,21 @@ struct RunSummary {
   double dt = 0;                                  // s
   double step_median = 0, step_p99 = 0, step_max = 0;  // s, wall time of one tick's work
   double max_force = 0;                           // N, largest force sent to the device
+  bool realtime = false;
+  TimingFigures period;                           // s, wake-up to wake-up (realtime runs)
+  std::uint64_t deadline_misses = 0;              // realtime ticks that ended after the next deadline
+  SafetyCounters safety;
+  std::uint64_t recorder_dropped = 0;             // rows lost by the recorder (0 unless overloaded)
   std::vector<RunEvent> events;
   std::filesystem::path csv, summary_json;        // where the outputs went
   std::vector<std::filesystem::path> plots;       // PNG plots written, if any
   std::string plot_error;                         // why plots are missing, if they are
+  std::vector<RunFrame> frames;                   // frames written, if asked for
+  std::string frame_error;                        // why frames are missing, if they are
 };
 
-// Run `scene` for its duration at its fixed tick, with its device; write `run.csv` and
-// `summary.json` atomically into the output directory.
+// Run `scene` for its duration at its fixed tick, with its device; stream `run.csv` (through
+// `run.csv.part`, renamed at the end) and write `summary.json` atomically into the output directory.
 Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options = {});
 
 // The same with tissues built by the caller (a model of your own, or ones already built);

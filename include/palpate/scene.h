@@ -35,6 +35,12 @@ struct DeviceDef {
   double ramp_in = 0.1;             // s, forces ramp in from zero over this time at start
   double stiffness = 1000.0;        // N/m, device's nominal maximum stiffness (virtual coupling)
   double damping = 2.0;             // N·s/m, device's nominal maximum damping
+  std::string coupling = "direct";  // direct | virtual: force from the HIP, or a proxy coupling
+  double proxy_mass = 0.001;        // kg, virtual coupling: mass of the tool proxy
+  double overrun_margin = 0.0005;   // s, a tick's work this far past its deadline gives zero force
+  double stall_timeout = 0.05;      // s, a physics thread silent this long gives zero force
+  std::string hd_library = "libHD.so";  // openhaptics: the HD library dlopen'ed at run time
+  std::string hd_device;            // openhaptics: device configuration name ("" = default)
 };
 
 struct CameraDef {

@@ -1,7 +1,10 @@
 // run.cpp — run_scene: a headless run at a fixed tick, and its CSV and summary.json outputs.
 #include <palpate/device.h>
+#include <palpate/haptics.h>
 #include <palpate/run.h>
+#include <palpate/render.h>
 #include <palpate/safety.h>
+#include <palpate/snapshot_tissue.h>
 #include <palpate/tissue.h>
 
 #include "io/plots.h"
@@ -13,9 +16,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <system_error>
+#include <thread>
 #include <unistd.h>
 
 namespace palpate {
@@ -45,16 +50,6 @@ Status write_file_atomic(const std::filesystem::path& file, const std::string& t
   return {};
 }
 
-namespace {
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(std::ceil(p * double(v.size())) - 1));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
-
-}  // namespace
 
 Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options) {
   std::vector<std::unique_ptr<Tissue>> tissues;
@@ -69,145 +64,234 @@ Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options) {
 Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<Tissue>> tissues,
                              const RunOptions& options) {
   namespace fs = std::filesystem;
-  using Clock = std::chrono::steady_clock;
 
   // --- build: everything that allocates or reads files happens here, before the first tick.
   auto device = make_device(scene);
   if (!device) return device.error();
   Device& dev = **device;
-  ForceSafety safety(dev.limits(), scene.device.ramp_in);
-
+  const std::string where = scene.file.empty() ? std::string("scene") : scene.file.string();
+  if (!(scene.dt > 0)) return Error{where + ": dt must be > 0 s"};
   const double dt = scene.dt;
-  const size_t ticks = static_cast<size_t>(std::llround(scene.duration / dt));
-
-  std::vector<std::string> columns = {"t", "tool_x", "tool_y", "tool_z", "force_x", "force_y",
-                                      "force_z", "force_N"};
-  std::vector<size_t> figure_offset;
-  for (const auto& t : tissues) {
-    figure_offset.push_back(columns.size());
-    for (const auto& f : t->figure_names()) columns.push_back(t->name() + "." + f);
-  }
-  const size_t ncol = columns.size();
-  std::vector<double> rows(ticks * ncol);     // every tick's row, written after the run
-  std::vector<double> step_time(ticks);       // s, wall time of each tick's work
-  std::vector<TissueEvent> event_buf(64);
-  std::vector<RunEvent> events;
-  events.reserve(256);
-
-  ToolState tool;
-  tool.radius = scene.tool.radius;
-  tool.needle = scene.tool.kind == "needle";
-  tool.length = tool.needle ? scene.tool.length : 0.0;
-  tool.axis = scene.tool.axis.normalized();
-  DeviceState state;
-  double max_force = 0;
-  const size_t progress_every = std::max<size_t>(1, ticks / 100);
-
-  // --- the fixed-tick loop: read device, step tissues, filter force, write device, record.
-  for (size_t k = 0; k < ticks; ++k) {
-    const double t = static_cast<double>(k + 1) * dt;
-    const auto start = Clock::now();
-    const bool read_ok = dev.read(t, state);
-    tool.time = t;
-    tool.tip = state.position;
-    tool.velocity = state.velocity;
-    tool.grasp = (state.buttons & 1u) != 0;
-    Vec3 force = Vec3::Zero();
-    for (auto& tissue : tissues) force += tissue->step(tool, dt);
-    const Vec3 sent = safety.filter(force, dt, read_ok);
-    dev.write(sent, Vec3::Zero());
-    step_time[k] = std::chrono::duration<double>(Clock::now() - start).count();
-
-    double* row = &rows[k * ncol];
-    row[0] = t;
-    row[1] = tool.tip.x(), row[2] = tool.tip.y(), row[3] = tool.tip.z();
-    row[4] = sent.x(), row[5] = sent.y(), row[6] = sent.z(), row[7] = sent.norm();
-    max_force = std::max(max_force, row[7]);
-    for (size_t i = 0; i < tissues.size(); ++i) {
-      const size_t nf = tissues[i]->figure_names().size();
-      tissues[i]->figures(std::span<double>(row + figure_offset[i], nf));
-      size_t n = 0;
-      while ((n = tissues[i]->drain_events(event_buf)) > 0)
-        for (size_t e = 0; e < n; ++e)
-          events.push_back({event_buf[e].time, event_buf[e].kind, tissues[i]->name(),
-                            event_buf[e].depth, event_buf[e].force});
-    }
-    if (options.progress && (k % progress_every == 0 || k + 1 == ticks))
-      options.progress(double(k + 1) / double(ticks));
-  }
-
-  // --- outputs, each written atomically.
+  const auto ticks = static_cast<std::uint64_t>(std::llround(scene.duration / dt));
   const fs::path out = options.out.empty() ? scene.output : options.out;
+  if (options.frames < 0 || std::uint64_t(options.frames) > ticks)
+    return Error{where + ": frames must be between 0 and the run's " + std::to_string(ticks) +
+                 " ticks, not " + std::to_string(options.frames)};
+
+  // Frames: each tissue hands its drawn state over through a SnapshotTissue (allocation-free on
+  // the stepping thread); frame k is taken after frame_target(k) ticks have run.
+  const auto nframes = static_cast<size_t>(options.frames);
+  std::vector<SnapshotTissue*> snaps;
+  if (nframes > 0) {
+    for (auto& t : tissues) {
+      auto wrapped = std::make_unique<SnapshotTissue>(std::move(t));
+      snaps.push_back(wrapped.get());
+      t = std::move(wrapped);
+    }
+  }
+  auto frame_target = [&](size_t k) -> std::uint64_t {
+    if (nframes == 1) return ticks;
+    return 1 + static_cast<std::uint64_t>(
+                   std::llround(double(k) * double(ticks - 1) / double(nframes - 1)));
+  };
+  const int digits = nframes > 1000 ? int(std::to_string(nframes - 1).size()) : 3;
+  std::vector<RunFrame> frames;
+  std::string frame_error;
+  std::vector<TissueSnapshot> frame_snaps(snaps.size());
+  // Draw frame k from the newest copies; `direct`: nothing steps the tissues now (headless), so a
+  // tissue that has not published since the request (a multi-rate one) is read directly.
+  auto take_frame = [&](size_t k, bool direct) {
+    SnapshotStamp tool;
+    Vec3 force = Vec3::Zero();
+    for (size_t i = 0; i < snaps.size(); ++i) {
+      bool fresh = false;
+      frame_snaps[i] = snaps[i]->latest(&fresh);
+      if (!fresh && direct) snaps[i]->snapshot(frame_snaps[i]);
+      const SnapshotStamp& st = snaps[i]->current_stamp();
+      force += st.force;
+      if (st.stepped && (!tool.stepped || st.time > tool.time)) tool = st;
+    }
+    if (!frame_error.empty()) return;
+    const fs::path file = out / fmt::format("frame_{:0{}}.png", k, digits);
+    if (Status s = render_frame_png(scene, frame_snaps, tool.tip, force, file, options.frame_options); !s)
+      frame_error = s.error().message;
+    else
+      frames.push_back({tool.time, file});
+  };
+
+  LoopSettings ls;
+  ls.dt = dt;
+  ls.realtime = options.realtime;
+  ls.try_realtime_priority = options.realtime_priority;
+  ls.max_ticks = ticks;
+  ls.ramp_in = scene.device.ramp_in;
+  if (scene.device.coupling == "direct")
+    ls.coupling = Coupling::direct;
+  else if (scene.device.coupling == "virtual")
+    ls.coupling = Coupling::virtual_;
+  else
+    return Error{where + ": device.coupling '" + scene.device.coupling +
+                 "' is not one of direct | virtual"};
+  ls.proxy_mass = scene.device.proxy_mass;
+  ls.watchdog.overrun_margin = scene.device.overrun_margin;
+  ls.watchdog.stall_timeout = scene.device.stall_timeout;
+  ls.tool = scene.tool;
+  ls.csv = out / "run.csv";
+  std::vector<LoopTissue> lt;
+  for (size_t i = 0; i < tissues.size(); ++i)
+    lt.push_back({tissues[i].get(), i < options.physics_dt.size() ? options.physics_dt[i] : 0.0});
+  auto built = HapticLoop::create(dev, std::move(lt), ls);
+  if (!built) return built.error();
+  HapticLoop& loop = **built;
+
+  // --- the run: the loop's own thread paced by the wall clock, or ticks as fast as they go here.
+  size_t next_frame = 0;
+  if (options.realtime) {
+    // This thread reports progress and draws the frames; the haptic thread never waits for it.
+    // A frame is requested a few ticks ahead of its target (the request is served by the next
+    // step), and the run's last frame, if the loop ended first, is read after it stopped.
+    // Mesa's software rasteriser (llvmpipe, behind OSMesa) starts one worker thread per core;
+    // beside a realtime haptic thread on a small machine they take its core and push the
+    // period's p99 from 1.09 to 2.6 ms (docs/benchmarks/haptics.md). Frames drawn beside the loop
+    // are rasterised on this thread alone, unless the user set LP_NUM_THREADS.
+    if (nframes > 0) ::setenv("LP_NUM_THREADS", "0", /*overwrite=*/0);
+    if (Status s = loop.start(); !s) return s.error();
+    bool requested = false;
+    std::vector<char> got(snaps.size(), 0);
+    auto last_progress = std::chrono::steady_clock::now();
+    for (LoopStats st = loop.stats(); st.running; st = loop.stats()) {
+      const auto now = std::chrono::steady_clock::now();
+      if (options.progress && now - last_progress > std::chrono::milliseconds(50)) {
+        options.progress(double(st.ticks) / double(std::max<std::uint64_t>(1, ticks)));
+        last_progress = now;
+      }
+      if (next_frame < nframes && !requested && st.ticks + 3 >= frame_target(next_frame)) {
+        for (SnapshotTissue* t : snaps) t->request();
+        std::fill(got.begin(), got.end(), 0);
+        requested = true;
+      }
+      if (requested) {
+        bool all = true;
+        for (size_t i = 0; i < snaps.size(); ++i) {
+          bool fresh = false;
+          if (!got[i]) snaps[i]->latest(&fresh);
+          got[i] = got[i] || fresh;
+          all = all && got[i];
+        }
+        if (all) {
+          take_frame(next_frame++, false);
+          requested = false;
+          continue;
+        }
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(next_frame < nframes ? 1 : 50));
+    }
+    loop.wait();
+    for (; next_frame < nframes; ++next_frame) take_frame(next_frame, true);
+    if (options.progress) options.progress(1.0);
+  } else {
+    const std::uint64_t chunk = std::max<std::uint64_t>(1, ticks / 100);
+    for (std::uint64_t done = 0; done < ticks;) {
+      std::uint64_t n = std::min(chunk, ticks - done);
+      if (next_frame < nframes) n = std::min(n, frame_target(next_frame) - done);
+      if (next_frame < nframes && done + n == frame_target(next_frame)) {
+        if (n > 1) loop.run_headless(n - 1);
+        for (SnapshotTissue* t : snaps) t->request();
+        loop.run_headless(1);
+        take_frame(next_frame++, true);
+      } else {
+        loop.run_headless(n);
+      }
+      done += n;
+      if (options.progress) options.progress(double(done) / double(ticks));
+    }
+  }
+  if (Status s = loop.finish_recording(); !s) return s.error();
+  const LoopStats st = loop.stats();
+
+  // --- outputs.
   RunSummary summary;
-  summary.ticks = ticks;
+  summary.ticks = st.ticks;
   summary.dt = dt;
-  summary.step_median = percentile(step_time, 0.5);
-  summary.step_p99 = percentile(step_time, 0.99);
-  summary.step_max = step_time.empty() ? 0 : *std::max_element(step_time.begin(), step_time.end());
-  summary.max_force = max_force;
-  summary.events = events;
+  summary.step_median = st.step.median;
+  summary.step_p99 = st.step.p99;
+  summary.step_max = st.step.max;
+  summary.max_force = st.max_force;
+  summary.realtime = options.realtime;
+  summary.period = st.period;
+  summary.deadline_misses = st.deadline_misses;
+  summary.safety = st.safety;
+  summary.recorder_dropped = st.recorder_dropped;
+  for (const HapticLoop::Event& e : loop.events())
+    summary.events.push_back({e.time, e.kind,
+                              e.tissue >= 0 && size_t(e.tissue) < tissues.size() ? tissues[size_t(e.tissue)]->name() : "",
+                              e.depth, e.force});
   summary.csv = out / "run.csv";
   summary.summary_json = out / "summary.json";
 
-  std::string csv;
-  csv.reserve(ticks * ncol * 14 + 256);
-  for (size_t c = 0; c < ncol; ++c) csv += (c ? "," : "") + columns[c];
-  csv += '\n';
-  for (size_t k = 0; k < ticks; ++k) {
-    for (size_t c = 0; c < ncol; ++c) {
-      if (c) csv += ',';
-      fmt::format_to(std::back_inserter(csv), "{:.9g}", rows[k * ncol + c]);
-    }
-    csv += '\n';
-  }
-  if (Status s = write_file_atomic(summary.csv, csv); !s) return s.error();
-
-  size_t overruns = 0;
-  for (double s : step_time) overruns += s > dt ? 1 : 0;
-  const SafetyCounters& sc = safety.counters();
+  const SafetyCounters& sc = st.safety;
   nlohmann::json j;
   j["scene"] = scene.name;
   j["scene_file"] = scene.file.string();
   j["palpate_version"] = version();
-  j["ticks"] = ticks;
+  j["ticks"] = st.ticks;
   j["dt_s"] = dt;
-  j["duration_s"] = double(ticks) * dt;
+  j["duration_s"] = double(st.ticks) * dt;
+  j["realtime"] = options.realtime;
+  j["coupling"] = scene.device.coupling;
   j["step_time_s"] = {{"median", summary.step_median}, {"p99", summary.step_p99},
-                      {"max", summary.step_max}, {"over_dt", overruns}};
-  j["max_force_N"] = max_force;
+                      {"max", summary.step_max}};
+  if (options.realtime) {
+    j["period_s"] = {{"median", st.period.median}, {"p99", st.period.p99}, {"max", st.period.max}};
+    j["deadline_misses"] = st.deadline_misses;
+    j["resyncs"] = st.resyncs;
+    j["realtime_priority"] = st.realtime_priority;
+  }
+  j["max_force_N"] = st.max_force;
   j["safety"] = {{"non_finite", sc.non_finite}, {"step_failed", sc.step_failed},
                  {"clamped", sc.clamped}, {"rate_limited", sc.rate_limited},
-                 {"max_force_N", dev.limits().max_force}};
+                 {"overrun", sc.overrun}, {"stalled", sc.stalled},
+                 {"device_failed", sc.device_failed}, {"max_force_N", dev.limits().max_force}};
+  j["recorder_dropped"] = st.recorder_dropped;
   j["tissues"] = nlohmann::json::array();
   for (const auto& t : tissues) j["tissues"].push_back(t->name());
   j["events"] = nlohmann::json::array();
-  for (const RunEvent& e : events)
+  for (const RunEvent& e : summary.events)
     j["events"].push_back({{"time_s", e.time}, {"kind", e.kind}, {"tissue", e.tissue},
                            {"depth_m", e.depth}, {"force_N", e.force}});
   // Plots of force against time and depth (a tool is always present in a scene).
-  if (options.plots && ticks > 0) {
+  const auto& ser = loop.series();  // t, tool_x..z, force_x..z, force_N
+  const size_t n = ser.empty() ? 0 : ser[0].size();
+  if (options.plots && n > 0) {
     PlotSeries ps;
-    ps.time.resize(ticks), ps.depth.resize(ticks), ps.force.resize(ticks), ps.axial.resize(ticks);
+    ps.time.resize(n), ps.depth.resize(n), ps.force.resize(n), ps.axial.resize(n);
     const Vec3 axis = scene.tool.axis.normalized();
-    size_t contact = ticks;
-    for (size_t k = 0; k < ticks && contact == ticks; ++k)
-      if (rows[k * ncol + 7] > 1e-9) contact = k;
-    const size_t ref = contact == ticks ? 0 : contact;
-    const Vec3 tip0(rows[ref * ncol + 1], rows[ref * ncol + 2], rows[ref * ncol + 3]);
-    for (size_t k = 0; k < ticks; ++k) {
-      const double* row = &rows[k * ncol];
-      ps.time[k] = row[0];
-      ps.depth[k] = (Vec3(row[1], row[2], row[3]) - tip0).dot(axis);
-      ps.force[k] = row[7];
-      ps.axial[k] = -Vec3(row[4], row[5], row[6]).dot(axis);
+    size_t contact = n;
+    for (size_t k = 0; k < n && contact == n; ++k)
+      if (ser[7][k] > 1e-9) contact = k;
+    const size_t ref = contact == n ? 0 : contact;
+    const Vec3 tip0(ser[1][ref], ser[2][ref], ser[3][ref]);
+    for (size_t k = 0; k < n; ++k) {
+      ps.time[k] = ser[0][k];
+      ps.depth[k] = (Vec3(ser[1][k], ser[2][k], ser[3][k]) - tip0).dot(axis);
+      ps.force[k] = ser[7][k];
+      ps.axial[k] = -Vec3(ser[4][k], ser[5][k], ser[6][k]).dot(axis);
     }
-    if (Status st = plot_run(out, scene.name, ps, events, &summary.plots); !st)
-      summary.plot_error = st.error().message;
+    if (Status s = plot_run(out, scene.name, ps, summary.events, &summary.plots); !s)
+      summary.plot_error = s.error().message;
   }
   j["outputs"] = {{"csv", summary.csv.filename().string()}};
   j["outputs"]["plots"] = nlohmann::json::array();
   for (const auto& p : summary.plots) j["outputs"]["plots"].push_back(p.filename().string());
   if (!summary.plot_error.empty()) j["outputs"]["plot_error"] = summary.plot_error;
+  summary.frames = std::move(frames);
+  summary.frame_error = std::move(frame_error);
+  if (nframes > 0) {
+    j["outputs"]["frames"] = nlohmann::json::array();
+    for (const RunFrame& f : summary.frames)
+      j["outputs"]["frames"].push_back({{"file", f.file.filename().string()}, {"time_s", f.time}});
+    if (!summary.frame_error.empty()) j["outputs"]["frame_error"] = summary.frame_error;
+  }
   if (Status s = write_file_atomic(summary.summary_json, j.dump(2) + "\n"); !s) return s.error();
   return summary;
 }

@@ -90,24 +90,4 @@ Result<std::vector<Waypoint>> load_trajectory_csv(const std::filesystem::path& f
   return points;
 }
 
-Result<std::unique_ptr<Device>> make_device(const SceneDef& scene) {
-  const DeviceDef& d = scene.device;
-  DeviceLimits limits;
-  limits.max_force = d.max_force;
-  limits.max_force_rate = d.max_force_rate;
-  limits.stiffness = d.stiffness;
-  limits.damping = d.damping;
-  if (d.kind == "scripted") {
-    std::vector<Waypoint> points = d.waypoints;
-    if (!d.trajectory.empty()) {
-      auto loaded = load_trajectory_csv(d.trajectory);
-      if (!loaded) return loaded.error();
-      points = std::move(*loaded);
-    }
-    return std::unique_ptr<Device>(new ScriptedDevice(std::move(points), limits));
-  }
-  return Error{scene.file.string() + ": device kind '" + d.kind +
-               "' is not available in this build (use kind: scripted)"};
-}
-
 }  // namespace palpate

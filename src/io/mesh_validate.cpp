@@ -40,9 +40,6 @@ Status validate(const SurfaceMesh& m, const std::string& where, const SurfaceReq
   if (Status s = check_vertices(m.V, where); !s) return s;
   if (m.F.rows() == 0) return Error{fmt::format("{}: empty mesh: no triangles", where)};
   if (Status s = check_indices(m.F, m.V.rows(), "triangle", where); !s) return s;
-  if (m.N.rows() != 0 && m.N.rows() != m.V.rows())
-    return Error{fmt::format("{}: {} normals for {} vertices, expected one per vertex or none", where, m.N.rows(),
-                             m.V.rows())};
 
   const double edge = topology::mean_edge_length(m.V, m.F);
   const double min_double_area = 2.0 * kRelativeTolerance * edge * edge;

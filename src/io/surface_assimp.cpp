@@ -4,6 +4,7 @@
 
 #include "core/mesh_topology.h"
 #include "io/mesh_io.h"
+#include "io/text_lines.h"
 
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
@@ -14,6 +15,7 @@
 #include <array>
 #include <cstdint>
 #include <cstring>
+#include <fstream>
 #include <system_error>
 #include <unordered_map>
 #include <vector>
@@ -36,6 +38,69 @@ struct PositionHash {
   }
 };
 
+// assimp 5.2's PLY reader loops forever on a header without "end_header": check the header
+// ourselves before handing the file over.
+Status check_ply_header(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::string line;
+  int number = 0;
+  const auto trimmed = [&line] {
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.pop_back();
+    return line;
+  };
+  while (std::getline(in, line)) {
+    ++number;
+    if (number == 1 && trimmed() != "ply")
+      return Error{fmt::format("{}:1: expected the PLY magic line 'ply'", file.string())};
+    if (trimmed() == "end_header") return {};
+  }
+  return Error{fmt::format("{}:{}: unexpected end of file, expected 'end_header' to close the PLY header",
+                           file.string(), number)};
+}
+
+// assimp 5.2's OFF reader silently clamps an out-of-range vertex index to the last vertex, which
+// would turn a broken face into a wrong one: check the face lines ourselves first.
+Status check_off_indices(const std::filesystem::path& file) {
+  Result<std::string> text = io::read_whole_file(file);
+  if (!text) return text.error();
+  const std::string name = file.string();
+  io::TokenReader in(*text, '#');
+  constexpr size_t kMax = 64;
+  std::string_view tok[kMax];
+  size_t count = 0, total = 0;
+  const auto error = [&](const std::string& what) { return Error{fmt::format("{}:{}: {}", name, in.line(), what)}; };
+  if (!in.line_tokens(tok, kMax, count, total) || tok[0].size() < 3 || tok[0].substr(tok[0].size() - 3) != "OFF")
+    return error("expected the OFF header line 'OFF'");
+  if (tok[0] != "OFF" && tok[0] != "COFF" && tok[0] != "NOFF" && tok[0] != "CNOFF" && tok[0] != "STOFF")
+    return {};  // 4OFF, nOFF and other variants: left to assimp
+  size_t first = 1;
+  if (count == 1) {
+    if (!in.line_tokens(tok, kMax, count, total)) return error("unexpected end of file, expected '<vertices> <faces> <edges>'");
+    first = 0;
+  }
+  long long nv = 0, nf = 0;
+  if (count < first + 2 || !io::parse_int(tok[first], nv) || !io::parse_int(tok[first + 1], nf) || nv < 0 || nf < 0)
+    return error("expected the counts '<vertices> <faces> <edges>'");
+  for (long long v = 0; v < nv; ++v)
+    if (!in.line_tokens(tok, kMax, count, total))
+      return error(fmt::format("unexpected end of file, expected vertex {} of {}", v, nv));
+  for (long long f = 0; f < nf; ++f) {
+    if (!in.line_tokens(tok, kMax, count, total))
+      return error(fmt::format("unexpected end of file, expected face {} of {}", f, nf));
+    long long k = 0;
+    if (!io::parse_int(tok[0], k) || k < 3 || static_cast<size_t>(k) + 1 > total)
+      return error(fmt::format("face {}: expected '<n> <n vertex indices>' with n >= 3", f));
+    for (long long j = 1; j <= k && static_cast<size_t>(j) < count; ++j) {
+      long long idx = 0;
+      if (!io::parse_int(tok[j], idx))
+        return error(fmt::format("face {}: expected a vertex index, found '{}'", f, io::printable(tok[j])));
+      if (idx < 0 || idx >= nv)
+        return error(fmt::format("face {} has vertex index {} out of range [0, {})", f, idx, nv));
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 Result<SurfaceMesh> load_surface(const std::filesystem::path& file, double scale, const SurfaceRequirements& need) {
@@ -49,6 +114,10 @@ Result<SurfaceMesh> load_surface(const std::filesystem::path& file, double scale
   const std::string ext = io::lower_extension(file);
   if (ext.empty() || !importer.IsExtensionSupported(ext))
     return Error{fmt::format("{}: unknown surface mesh format '{}', expected .obj, .stl, .ply or .off", where, ext)};
+  if (ext == ".ply")
+    if (Status s = check_ply_header(file); !s) return s.error();
+  if (ext == ".off")
+    if (Status s = check_off_indices(file); !s) return s.error();
   // Only positions and faces matter: dropping normals, UVs and colours lets
   // JoinIdenticalVertices merge every corner by position.
   importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
@@ -57,13 +126,30 @@ Result<SurfaceMesh> load_surface(const std::filesystem::path& file, double scale
                                   aiComponent_TEXTURES | aiComponent_LIGHTS | aiComponent_CAMERAS |
                                   aiComponent_MATERIALS);
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene =
-      importer.ReadFile(where, aiProcess_ValidateDataStructure | aiProcess_RemoveComponent | aiProcess_Triangulate |
-                                   aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
-                                   aiProcess_SortByPType);
-  if (!scene) return Error{fmt::format("{}: assimp could not read the file: {}", where, importer.GetErrorString())};
-  if (scene->mNumMeshes == 0 || !scene->mMeshes)
-    return Error{fmt::format("{}: no triangle mesh in the file", where)};
+  // Read without post-processing first: assimp's own steps assert (and abort the process) on
+  // faces a damaged file can produce, such as a face with no indices from a truncated PLY.
+  const aiScene* raw = importer.ReadFile(where, 0);
+  if (!raw) return Error{fmt::format("{}: assimp could not read the file: {}", where, importer.GetErrorString())};
+  if (raw->mNumMeshes == 0 || !raw->mMeshes) return Error{fmt::format("{}: no triangle mesh in the file", where)};
+  for (unsigned i = 0; i < raw->mNumMeshes; ++i) {
+    const aiMesh* mesh = raw->mMeshes[i];
+    if (!mesh || (mesh->mNumFaces > 0 && (!mesh->mFaces || !mesh->mVertices)))
+      return Error{fmt::format("{}: mesh {} is incomplete", where, i)};
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices == 0 || !face.mIndices)
+        return Error{fmt::format("{}: mesh {} face {} has no vertices (is the file truncated?)", where, i, f)};
+      for (unsigned k = 0; k < face.mNumIndices; ++k)
+        if (face.mIndices[k] >= mesh->mNumVertices)
+          return Error{fmt::format("{}: mesh {} face {} has vertex index {} out of range [0, {})", where, i, f,
+                                   face.mIndices[k], mesh->mNumVertices)};
+    }
+  }
+  const aiScene* scene = importer.ApplyPostProcessing(
+      aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+      aiProcess_PreTransformVertices | aiProcess_SortByPType);
+  if (!scene) return Error{fmt::format("{}: assimp could not process the mesh: {}", where, importer.GetErrorString())};
+  if (scene->mNumMeshes == 0 || !scene->mMeshes) return Error{fmt::format("{}: no triangle mesh in the file", where)};
 
   std::unordered_map<std::array<float, 3>, int, PositionHash> index_of;
   std::vector<std::array<float, 3>> positions;

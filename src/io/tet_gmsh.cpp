@@ -1,16 +1,22 @@
 // tet_gmsh.cpp — everything that touches Gmsh: reading .msh files (v1, v2, v4) and filling a
 // closed surface with tetrahedra. The only file of palpate that includes gmsh.h.
 #include "io/mesh_io.h"
+#include "io/text_lines.h"
 
 #include <gmsh.h>
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
 #include <cmath>
 #include <exception>
 #include <fstream>
 #include <mutex>
+#include <new>
 #include <numeric>
 #include <unordered_map>
 #include <vector>
@@ -30,8 +36,10 @@ std::mutex& gmsh_mutex() {
 
 // Called with the lock held. Initialises Gmsh once, silent, and with errors logged rather than
 // thrown: an exception thrown from inside Gmsh's readers leaves it "busy" for every later call.
+bool gmsh_initialised = false;  // guarded by gmsh_mutex()
+
 void ensure_gmsh() {
-  static bool initialised = false;
+  bool& initialised = gmsh_initialised;
   if (initialised) return;
   gmsh::initialize(0, nullptr, false);
   gmsh::option::setNumber("General.Terminal", 0);
@@ -44,10 +52,14 @@ void ensure_gmsh() {
 template <class Work>
 std::string run_gmsh(Work&& work) {
   std::string failure;
+  bool thrown = true;
   gmsh::logger::start();
   try {
     gmsh::clear();
     work();
+    thrown = false;
+  } catch (const std::bad_alloc&) {
+    failure = "out of memory (does the file promise more nodes or elements than it holds?)";
   } catch (const std::exception& e) {
     failure = e.what();
   } catch (const std::string& s) {
@@ -64,8 +76,15 @@ std::string run_gmsh(Work&& work) {
       if (!errors.empty()) errors += "; ";
       errors += line.substr(7);
     }
-  if (errors.empty()) errors = failure;
-  gmsh::clear();  // leave no model behind holding memory
+  if (!failure.empty()) errors += (errors.empty() ? "" : "; ") + failure;
+  if (thrown) {
+    // An exception out of Gmsh's reader leaves it marked busy ("I'm busy! Ask me that later")
+    // for every later call: only finalising and initialising again clears that.
+    gmsh::finalize();
+    gmsh_initialised = false;
+  } else {
+    gmsh::clear();  // leave no model behind holding memory
+  }
   return errors;
 }
 
@@ -128,11 +147,227 @@ Status check_msh_header(const std::filesystem::path& file) {
                            file.string(), shown)};
 }
 
+// Gmsh 4.8's ASCII format-4 reader trusts each section's totals and writes past its arrays when
+// the blocks hold more than the total promised (found by fuzzing: a one-digit change crashes
+// it). Check that the blocks of $Nodes and $Elements add up to their totals and that tags lie
+// in the promised range. `body` starts on the line after the section's name, which is `line`.
+Status check_msh4_block_sums(std::string_view body, bool nodes, int line, const std::string& name) {
+  TokenReader in(body, '\0');
+  const auto error = [&](const std::string& what) {
+    return Error{fmt::format("{}:{}: {}: {}", name, line + in.line(), nodes ? "$Nodes" : "$Elements", what)};
+  };
+  const auto number = [&](long long& v, const char* what) -> Status {
+    std::string_view t;
+    if (!in.next(t)) return error(fmt::format("unexpected end of file, expected {}", what));
+    if (!parse_int(t, v)) return error(fmt::format("expected {} (an integer), found '{}'", what, printable(t)));
+    return {};
+  };
+  long long blocks = 0, total = 0, min_tag = 0, max_tag = 0;
+  for (auto [v, what] : {std::pair{&blocks, "the number of blocks"}, {&total, "the total count"},
+                         {&min_tag, "the smallest tag"}, {&max_tag, "the largest tag"}})
+    if (Status s = number(*v, what); !s) return s;
+  if (blocks < 0 || total < 0 || min_tag < 0 || max_tag < min_tag || blocks > total + 1)
+    return error(fmt::format("inconsistent header '{} {} {} {}'", blocks, total, min_tag, max_tag));
+  long long sum = 0;
+  for (long long b = 0; b < blocks; ++b) {
+    long long dim = 0, entity = 0, kind = 0, count = 0;
+    for (auto [v, what] : {std::pair{&dim, "an entity dimension"}, {&entity, "an entity tag"},
+                           {&kind, nodes ? "the parametric flag" : "an element type"}, {&count, "a block size"}})
+      if (Status s = number(*v, what); !s) return s;
+    sum += count;
+    if (dim < 0 || dim > 3 || count < 0 || sum > total)
+      return error(fmt::format("block {} ('{} {} {} {}') does not fit the header's total of {}", b, dim, entity, kind,
+                               count, total));
+    if (nodes) {
+      if (kind != 0 && kind != 1) return error(fmt::format("block {}: expected parametric flag 0 or 1, found {}", b, kind));
+      // Tags first, then coordinates: 3 each, plus `dim` parametric ones when flagged.
+      for (long long i = 0; i < count; ++i) {
+        long long tag = 0;
+        if (Status s = number(tag, "a node tag"); !s) return s;
+        if (tag < min_tag || tag > max_tag)
+          return error(fmt::format("node tag {} outside the header's range [{}, {}]", tag, min_tag, max_tag));
+      }
+      const long long values = count * (3 + (kind ? dim : 0));
+      for (long long i = 0; i < values; ++i) {
+        std::string_view t;
+        double x = 0;
+        if (!in.next(t) || !parse_double(t, x)) return error("expected a node coordinate");
+      }
+    } else {
+      // Each element: its tag, then its nodes; skip to the next line (node counts depend on the type).
+      for (long long i = 0; i < count; ++i) {
+        long long tag = 0;
+        if (Status s = number(tag, "an element tag"); !s) return s;
+        if (tag < min_tag || tag > max_tag)
+          return error(fmt::format("element tag {} outside the header's range [{}, {}]", tag, min_tag, max_tag));
+        in.rest_of_line();
+      }
+    }
+  }
+  if (sum != total) return error(fmt::format("the blocks hold {}, the header promises {}", sum, total));
+  return {};
+}
+
+// The same check for binary format 4 (little-endian, 8-byte size_t, 4-byte int), where each
+// element's node count comes from its type: types Gmsh 4.8 writes for meshes of order ≤ 2.
+Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line, const std::string& name,
+                                    std::uint64_t node_min, std::uint64_t node_max) {
+  size_t at = 0;
+  bool short_read = false;
+  const auto u64 = [&]() -> std::uint64_t {
+    std::uint64_t v = 0;
+    if (at + 8 > body.size()) short_read = true;
+    else std::memcpy(&v, body.data() + at, 8);
+    at += 8;
+    return v;
+  };
+  const auto i32 = [&]() -> std::int32_t {
+    std::int32_t v = 0;
+    if (at + 4 > body.size()) short_read = true;
+    else std::memcpy(&v, body.data() + at, 4);
+    at += 4;
+    return v;
+  };
+  const auto error = [&](const std::string& what) {
+    return Error{fmt::format("{}:{}: {} (binary, byte {} of the section): {}", name, line, nodes ? "$Nodes" : "$Elements",
+                             at, what)};
+  };
+  const std::uint64_t blocks = u64(), total = u64(), min_tag = u64(), max_tag = u64();
+  if (short_read) return error("unexpected end of file in the section header");
+  if (max_tag < min_tag || blocks > total + 1) return error("inconsistent section header");
+  std::uint64_t sum = 0;
+  for (std::uint64_t b = 0; b < blocks; ++b) {
+    const std::int32_t dim = i32(), entity = i32(), kind = i32();
+    const std::uint64_t count = u64();
+    if (short_read) return error(fmt::format("unexpected end of file in block {}", b));
+    sum += count;
+    if (dim < 0 || dim > 3 || count > total || sum > total)
+      return error(fmt::format("block {} (entity {} of dimension {}, {} items) does not fit the header's total of {}", b,
+                               entity, dim, count, total));
+    if (nodes) {
+      if (kind != 0 && kind != 1) return error(fmt::format("block {}: expected parametric flag 0 or 1, found {}", b, kind));
+      for (std::uint64_t i = 0; i < count; ++i) {
+        const std::uint64_t tag = u64();
+        if (short_read) return error("unexpected end of file in the node tags");
+        if (tag < min_tag || tag > max_tag)
+          return error(fmt::format("node tag {} outside the header's range [{}, {}]", tag, min_tag, max_tag));
+      }
+      at += count * 8 * static_cast<std::uint64_t>(3 + (kind ? dim : 0));
+    } else {
+      static constexpr int kNodesOfType[] = {0, 2, 3, 4, 4, 8, 6, 5, 3, 6, 9, 10, 27, 18, 14, 1};
+      if (kind < 1 || kind > 15) return error(fmt::format("block {}: element type {} is not read", b, kind));
+      for (std::uint64_t i = 0; i < count; ++i) {
+        const std::uint64_t tag = u64();
+        if (short_read) return error("unexpected end of file in the elements");
+        if (tag < min_tag || tag > max_tag)
+          return error(fmt::format("element tag {} outside the header's range [{}, {}]", tag, min_tag, max_tag));
+        // Gmsh's binary reader looks nodes up without a bounds check.
+        for (int k = 0; k < kNodesOfType[kind]; ++k) {
+          const std::uint64_t node = u64();
+          if (short_read) return error("unexpected end of file in the elements");
+          if (node < node_min || node > node_max)
+            return error(fmt::format("element {} has node {} outside the $Nodes range [{}, {}]", tag, node, node_min,
+                                     node_max));
+        }
+      }
+    }
+    if (at > body.size()) return error(fmt::format("unexpected end of file in block {}", b));
+  }
+  if (sum != total) return error(fmt::format("the blocks hold {}, the header promises {}", sum, total));
+  return {};
+}
+
+// Gmsh sizes memory by the counts and tag ranges a file promises, before reading what follows:
+// a damaged file promising billions of nodes (or a node tag of 10^12 in format 4) would have it
+// allocate terabytes or crash. Check those promises against the file's size first.
+Status check_msh_counts(const std::filesystem::path& file) {
+  Result<std::string> text = read_whole_file(file);
+  if (!text) return text.error();
+  const std::string& t = *text;
+  const size_t bytes = t.size();
+  const std::string name = file.string();
+  // Version and binary flag from "$MeshFormat\n<version> <file-type> <data-size>".
+  double version = 1.0;
+  int binary = 0, data_size = 8;
+  if (const size_t at = t.find("$MeshFormat"); at != std::string::npos)
+    if (std::sscanf(t.c_str() + at + 11, "%lf %d %d", &version, &binary, &data_size) < 1) version = 0;
+  if (binary && version >= 4 && data_size != 8)
+    return Error{fmt::format("{}: binary mesh with {}-byte sizes; expected 8", name, data_size)};
+  // Generous bounds: a node or element takes at least 4 bytes of text, and tags may be sparse,
+  // but not by more than a factor 64 of the file's size.
+  const double max_count = static_cast<double>(bytes) / 4.0 + 16;
+  const double max_tag = std::max(1e6, 64.0 * static_cast<double>(bytes));
+  std::uint64_t node_min = 0, node_max = 0;  // tag range of $Nodes, for the elements' nodes
+  int line = 1;
+  size_t pos = 0;
+  while (pos < bytes) {
+    size_t end = t.find('\n', pos);
+    if (end == std::string::npos) end = bytes;
+    std::string_view header(t.data() + pos, end - pos);
+    while (!header.empty() && (header.back() == '\r' || header.back() == ' ')) header.remove_suffix(1);
+    if (!header.empty() && header.front() == '$' && !(binary && version >= 4)) {
+      // In a text mesh file a line opening with '$' is a section name and nothing else.
+      for (char c : header.substr(1))
+        if (!std::isalpha(static_cast<unsigned char>(c)))
+          return Error{fmt::format("{}:{}: expected a section name such as $Nodes, found '{}'", name, line,
+                                   printable(header))};
+    }
+    const bool nodes = header == "$Nodes" || header == "$NOD" || header == "$NOE";
+    const bool elements = header == "$Elements" || header == "$ELM";
+    if ((nodes || elements) && end < bytes) {
+      double v[4] = {0, 0, 0, 0};
+      int n = 0;
+      if (version >= 4 && binary) {
+        // Four size_t after the section line: blocks, count, min tag, max tag.
+        if (end + 1 + 32 <= bytes) {
+          for (int k = 0; k < 4; ++k) {
+            std::uint64_t x = 0;
+            std::memcpy(&x, t.data() + end + 1 + 8 * k, 8);
+            v[k] = static_cast<double>(x);
+          }
+          n = 4;
+        }
+      } else {
+        n = std::sscanf(t.c_str() + end + 1, "%lf %lf %lf %lf", &v[0], &v[1], &v[2], &v[3]);
+      }
+      const double count = version >= 4 ? v[1] : v[0];
+      if (n >= 1 && (count < 0 || count > max_count))
+        return Error{fmt::format("{}:{}: {} promises {:.0f} {}, more than the file can hold", name, line + 1, header,
+                                 count, nodes ? "nodes" : "elements")};
+      if (version >= 4 && n == 4 && (v[3] > max_tag || v[2] < 0))
+        return Error{fmt::format("{}:{}: {} tags run up to {:.0f}, far beyond the file's size (expected at most {:.0f})",
+                                 name, line + 1, header, v[3], max_tag)};
+      if (version >= 4) {
+        const std::string_view body = std::string_view(t).substr(end + 1);
+        if (nodes && n == 4) {
+          node_min = static_cast<std::uint64_t>(v[2]);
+          node_max = static_cast<std::uint64_t>(v[3]);
+        }
+        if (Status s = binary ? check_msh4_binary_block_sums(body, nodes, line, name, node_min, node_max)
+                              : check_msh4_block_sums(body, nodes, line, name);
+            !s)
+          return s;
+      }
+    }
+    pos = end + 1;
+    ++line;
+    if (binary && version >= 4 && pos < bytes && t[pos] != '$') {
+      // Binary data: jump to the next line that opens a section.
+      const size_t next = t.find("\n$", pos);
+      if (next == std::string::npos) break;
+      line += static_cast<int>(std::count(t.begin() + static_cast<std::ptrdiff_t>(pos), t.begin() + static_cast<std::ptrdiff_t>(next) + 1, '\n'));
+      pos = next + 1;
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 Result<TetMesh> read_gmsh(const std::filesystem::path& file) {
   const std::string where = file.string();
   if (Status s = check_msh_header(file); !s) return s.error();
+  if (Status s = check_msh_counts(file); !s) return s.error();
   std::lock_guard lock(gmsh_mutex());
   ensure_gmsh();
   Result<TetMesh> mesh = Error{""};

@@ -92,7 +92,9 @@ TEST(Run, FixedTicksCsvAndSummary) {
   std::istringstream csv(slurp(out / "run.csv"));
   std::string header;
   std::getline(csv, header);
-  EXPECT_EQ(header, "t,tool_x,tool_y,tool_z,force_x,force_y,force_z,force_N,floor.force_N");
+  EXPECT_EQ(header,
+            "t,tool_x,tool_y,tool_z,force_x,force_y,force_z,force_N,tick,tool_qw,tool_qx,tool_qy,"
+            "tool_qz,buttons,events,floor.force_N");
   size_t rows = 0;
   std::string line;
   double last_t = 0, last_f = 0;
@@ -101,6 +103,7 @@ TEST(Run, FixedTicksCsvAndSummary) {
     double v[9];
     ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2],
                           &v[3], &v[4], &v[5], &v[6], &v[7], &v[8]), 9) << line;
+    EXPECT_EQ(v[8], double(rows - 1)) << "tick numbers are consecutive from 0";
     EXPECT_NEAR(v[0] - last_t, 0.001, 1e-9);
     last_t = v[0];
     EXPECT_LE(v[7], 3.3 + 1e-9);                        // never above the device maximum

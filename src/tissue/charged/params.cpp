@@ -20,6 +20,12 @@ std::span<const Param<ChargedMaterialDef>> param_table(const ChargedMaterialDef*
       {"puncture_force", &D::puncture_force, 0.0, 100.0, "N",
        "force at maximum displacement beyond which the patch is punctured"},
       {"hole_closes", &D::hole_closes, 0, 1, "", "whether a puncture hole closes after the tool leaves"},
+      {"track_friction", &D::track_friction, 0.0, 100.0, "N",
+       "kinetic friction of a punctured layer on the tool moving along its track (both ways)"},
+      {"friction_velocity", &D::friction_velocity, 1e-6, 10.0, "m/s",
+       "axial speed over which track friction rises from 0 to its kinetic value (tanh)"},
+      {"mesh_spacing", &D::mesh_spacing, 1e-6, 1.0, "m",
+       "target particle spacing when the patch is laid on a mesh (isotropic remeshing)"},
   };
   return table;
 }

@@ -1,8 +1,100 @@
-// tissue.cpp — the charged-particle model wired as a scene tissue (being built: issue 4).
+// tissue.cpp — the charged-particle model wired as a scene tissue: build from a patch or a mesh,
+// step with the tool as HIP, figures, events, snapshot, reset.
+#include <palpate/charged.h>
+
+#include "tissue/charged/mesh_ref.h"
 #include "tissue/factory.h"
 
+#include <algorithm>
+#include <array>
+#include <string>
+
 namespace palpate {
-Result<std::unique_ptr<Tissue>> make_charged_tissue(const SceneDef&, int) {
-  return Error{"the charged-particle model is not built yet"};
+
+namespace {
+
+class ChargedTissue final : public Tissue {
+ public:
+  ChargedTissue(std::string name, int index, ChargedModel model)
+      : name_(std::move(name)), index_(index), model_(std::move(model)), state_(make_charged_state(model_)) {}
+
+  const std::string& name() const override { return name_; }
+
+  Vec3 step(const ToolState& tool, double dt) noexcept override {
+    ChargedHip hip;
+    hip.position = tool.tip;
+    hip.axis = tool.axis;
+    hip.velocity = tool.velocity;
+    // A needle's shaft follows its tip through the holes; a sphere probe is only its centre.
+    hip.shaft_length = tool.needle ? tool.length : 0.0;
+    return palpate::step(model_, state_, hip, dt, index_);
+  }
+
+  std::span<const std::string> figure_names() const override { return kFigureNames; }
+
+  void figures(std::span<double> out) const noexcept override {
+    const double values[] = {
+        state_.force.norm(),
+        state_.stats.max_displacement,
+        static_cast<double>(state_.active_count),
+        static_cast<double>(state_.stats.contacts),
+        static_cast<double>(state_.stats.pinned),
+        std::any_of(state_.holes.begin(), state_.holes.end(), [](const ChargedHole& h) { return h.in_track; })
+            ? 1.0 : 0.0,
+        static_cast<double>(std::count_if(state_.holes.begin(), state_.holes.end(),
+                                          [](const ChargedHole& h) { return h.open; })),
+        static_cast<double>(state_.stats.propagation_visits),
+    };
+    std::copy_n(values, std::min(out.size(), std::size(values)), out.begin());
+  }
+
+  size_t drain_events(std::span<TissueEvent> out) noexcept override {
+    return palpate::drain_events(state_, out);
+  }
+
+  void snapshot(TissueSnapshot& snap) const override {
+    const size_t n = model_.size();
+    snap.points.resize(n);
+    for (size_t i = 0; i < n; ++i) snap.points[i] = Vec3f(state_.x[i], state_.y[i], state_.z[i]);
+    snap.rows_cols.clear();
+    if (model_.layout != ChargedLayout::mesh) snap.rows_cols = {model_.rows, model_.cols};
+    snap.triangles = model_.triangles;
+    snap.links.clear();
+    std::array<int, 6> nb{};
+    for (size_t i = 0; i < n; ++i) {
+      const int count = model_.neighbours_of(static_cast<int>(i), nb);
+      for (int k = 0; k < count; ++k)
+        if (nb[static_cast<size_t>(k)] > static_cast<int>(i))
+          snap.links.push_back({static_cast<int>(i), nb[static_cast<size_t>(k)]});
+    }
+  }
+
+  void reset() noexcept override { palpate::reset(model_, state_); }
+
+ private:
+  static inline const std::string kFigureNames[] = {
+      "force_N", "max_displacement_m", "active_particles", "contact_particles",
+      "pinned_particles", "punctured", "holes", "propagation_visits"};
+  std::string name_;
+  int index_;
+  ChargedModel model_;
+  ChargedState state_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<Tissue>> make_charged_tissue(const SceneDef& scene, int index) {
+  if (index < 0 || static_cast<size_t>(index) >= scene.tissues.size())
+    return Error{scene.file.string() + ": no tissue " + std::to_string(index) + " (the scene has " +
+                 std::to_string(scene.tissues.size()) + ")"};
+  const TissueDef& t = scene.tissues[static_cast<size_t>(index)];
+  const std::string where = scene.file.string() + ":" + std::to_string(t.line) + ": tissue '" + t.name + "'";
+  if (t.patch.has_value() == t.mesh.has_value())
+    return Error{where + ": expected exactly one of 'patch' and 'mesh'"};
+  Result<ChargedModel> model = t.patch ? build_charged_patch(*t.patch, t.charged, where)
+                                       : charged::build_on_mesh_ref(*t.mesh, t.charged, where);
+  if (!model) return model.error();
+  return std::unique_ptr<Tissue>(std::make_unique<ChargedTissue>(t.name, index, std::move(*model)));
 }
+
 }  // namespace palpate

@@ -1,0 +1,88 @@
+// cmd_view.cpp — `palpate view SCENE`: the interactive viewer's command line.
+#include <palpate/palpate.h>
+
+#include "commands.h"
+#include "view/viewer.h"
+
+#include <fmt/core.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <sstream>
+
+namespace palpate::cli {
+
+namespace {
+
+struct ViewArgs {
+  std::string scene;
+  std::string probe;  // "x,y,depth"
+  view::ViewerOptions options;
+};
+
+// "x,y,depth" → ProbeRequest; the error names the flag and the expected form.
+Result<view::ProbeRequest> parse_probe(const std::string& text) {
+  view::ProbeRequest p;
+  std::istringstream in(text);
+  char c1 = 0, c2 = 0;
+  if (!(in >> p.x >> c1 >> p.y >> c2 >> p.depth) || c1 != ',' || c2 != ',' || !(in >> std::ws).eof())
+    return Error{"--probe '" + text + "': expected x,y,depth (window pixels and metres, e.g. 400,300,0.003)"};
+  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.depth) || p.depth < -0.1 || p.depth > 0.1)
+    return Error{"--probe '" + text + "': depth must be finite and within [-0.1, 0.1] m"};
+  return p;
+}
+
+int view_command(ViewArgs& args) {
+  auto scene = load_scene(args.scene);
+  if (!scene) {
+    fmt::print(stderr, "palpate view: {}\n", scene.error().message);
+    return 2;
+  }
+  if (!args.probe.empty()) {
+    auto p = parse_probe(args.probe);
+    if (!p) {
+      fmt::print(stderr, "palpate view: {}\n", p.error().message);
+      return 2;
+    }
+    args.options.probe = *p;
+  }
+  if (args.options.exit_after && args.options.frames < 1) args.options.frames = 1;
+  prepare_realtime_process();  // the viewer runs a realtime haptic loop beside its GL thread
+  return view::run_viewer(*scene, args.options);
+}
+
+}  // namespace
+
+void add_view_command(CLI::App& app) {
+  auto args = std::make_shared<ViewArgs>();
+  CLI::App* view = app.add_subcommand(
+      "view", "Open a window on a scene: the mouse drives the tool as a virtual haptic device");
+  view->add_option("scene", args->scene, "Scene file (YAML, see docs/scene-format.md)")
+      ->required()->check(CLI::ExistingFile);
+  view->add_option("--frames", args->options.frames, "With --exit: frames to draw before exiting")
+      ->check(CLI::NonNegativeNumber);
+  view->add_flag("--exit", args->options.exit_after,
+                 "Exit by itself after --frames frames (and a --probe settled); ignores the mouse");
+  view->add_option("--screenshot", args->options.screenshot,
+                   "PNG written on exit (and by the F12 / S key); written atomically");
+  view->add_option("--probe", args->probe,
+                   "Press the tool in at start: x,y (window pixels) and depth (m) past the surface there");
+  view->add_option("--width", args->options.width, "Window width in pixels (default: the scene camera's)")
+      ->check(CLI::Range(0, 8192));
+  view->add_option("--height", args->options.height, "Window height in pixels (default: the scene camera's)")
+      ->check(CLI::Range(0, 8192));
+  view->add_option("--resolution", args->options.resolution, "Drawn surface: segments per Bézier patch edge")
+      ->check(CLI::Range(1, 32));
+  view->add_option("--tool-speed", args->options.tool_speed, "Fastest the mouse moves the tool, m/s")
+      ->check(CLI::Range(1e-4, 10.0));
+  view->add_option("--overrun-margin", args->options.overrun_margin,
+                   "Haptic watchdog: s past a tick's deadline before force goes to zero (default: the library's)")
+      ->check(CLI::Range(0.0, 1.0));
+  view->add_option("--settle", args->options.settle, "With --probe and --exit: s to hold still before the screenshot")
+      ->check(CLI::Range(0.0, 60.0));
+  view->add_flag("!--no-panels", args->options.panels, "Hide the ImGui panels");
+  view->callback([args] { throw CLI::RuntimeError(view_command(*args)); });
+}
+
+}  // namespace palpate::cli

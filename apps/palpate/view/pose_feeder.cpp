@@ -1,0 +1,73 @@
+// pose_feeder.cpp — PoseFeeder: the 1 kHz, speed-limited walk of the virtual device's pose.
+#include "pose_feeder.h"
+
+#include <chrono>
+
+namespace palpate::view {
+
+PoseFeeder::PoseFeeder(VirtualDevice& device, const Vec3& start, double max_speed)
+    : device_(device), target_(start), position_(start), max_speed_(max_speed) {
+  DeviceState s;
+  s.position = start;
+  device_.set_pose(s);
+  thread_ = std::thread([this] { run(); });
+}
+
+PoseFeeder::~PoseFeeder() {
+  quit_.store(true);
+  thread_.join();
+}
+
+void PoseFeeder::set_target(const Vec3& target) {
+  if (!target.allFinite()) return;
+  std::lock_guard lock(mutex_);
+  target_ = target;
+  arrived_ = (target_ - position_).norm() < 1e-9;
+}
+
+void PoseFeeder::set_max_speed(double metres_per_second) {
+  std::lock_guard lock(mutex_);
+  max_speed_ = metres_per_second > 0 ? metres_per_second : max_speed_;
+}
+
+Vec3 PoseFeeder::target() const {
+  std::lock_guard lock(mutex_);
+  return target_;
+}
+
+Vec3 PoseFeeder::position() const {
+  std::lock_guard lock(mutex_);
+  return position_;
+}
+
+bool PoseFeeder::arrived() const {
+  std::lock_guard lock(mutex_);
+  return arrived_;
+}
+
+void PoseFeeder::run() {
+  using clock = std::chrono::steady_clock;
+  auto last = clock::now();
+  while (!quit_.load(std::memory_order_relaxed)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    const auto now = clock::now();
+    const double dt = std::chrono::duration<double>(now - last).count();
+    last = now;
+    DeviceState s;
+    {
+      std::lock_guard lock(mutex_);
+      const Vec3 to_go = target_ - position_;
+      const double distance = to_go.norm();
+      const double reach = max_speed_ * dt;
+      Vec3 step = to_go;
+      if (distance > reach) step *= reach / distance;
+      position_ += step;
+      arrived_ = distance <= reach;
+      s.position = position_;
+      s.velocity = dt > 0 ? Vec3(step / dt) : Vec3::Zero();
+    }
+    device_.set_pose(s);
+  }
+}
+
+}  // namespace palpate::view

@@ -1,0 +1,45 @@
+// pose_feeder.h — PoseFeeder: moves the virtual haptic device towards where the mouse puts the
+// tool, at 1 kHz and a bounded speed, from its own thread (never the haptic thread).
+#pragma once
+
+#include <palpate/core.h>
+#include <palpate/device.h>
+
+#include <atomic>
+#include <mutex>
+#include <thread>
+
+namespace palpate::view {
+
+// The display runs at 30–60 Hz (less under software GL) while the haptic loop reads the device at
+// 1 kHz: handing it the mouse's position once per frame would make the tool jump millimetres per
+// tick (a needle 0.8 mm thick would tunnel through a layer). So the GUI only sets a target; this
+// thread walks the device's pose towards it every millisecond at no more than `max_speed`, with a
+// matching velocity, through VirtualDevice::set_pose (lock-free on the haptic side).
+class PoseFeeder {
+ public:
+  // `device` must outlive the feeder. The pose starts (and stays until set_target) at `start`.
+  PoseFeeder(VirtualDevice& device, const Vec3& start, double max_speed);
+  ~PoseFeeder();
+  PoseFeeder(const PoseFeeder&) = delete;
+  PoseFeeder& operator=(const PoseFeeder&) = delete;
+
+  void set_target(const Vec3& target);      // m; GUI thread
+  void set_max_speed(double metres_per_second);
+  Vec3 target() const;
+  Vec3 position() const;                    // m, the pose last handed to the device
+  bool arrived() const;                     // the pose has reached the target
+
+ private:
+  void run();
+
+  VirtualDevice& device_;
+  mutable std::mutex mutex_;  // between the GUI and this thread only; the haptic thread never waits
+  Vec3 target_, position_;
+  double max_speed_;
+  bool arrived_ = true;
+  std::atomic<bool> quit_{false};
+  std::thread thread_;
+};
+
+}  // namespace palpate::view

@@ -1,0 +1,159 @@
+// palpate/charged.h — the charged-particle tissue model: patch model (constant), state (stepped),
+// the HIP, builders (generated patch, patch laid on a surface mesh) and the step kernel pipeline.
+#pragma once
+
+#include <palpate/charged_def.h>
+#include <palpate/core.h>
+#include <palpate/mesh.h>
+#include <palpate/scene.h>
+#include <palpate/tissue.h>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace palpate {
+
+// How a patch's particles were laid out; it decides how neighbours and nearby particles are found.
+enum class ChargedLayout : std::uint8_t {
+  flat,      // generated hexagonal lattice on a plane (implicit neighbours, lattice-indexed search)
+  cylinder,  // the same lattice bent onto a cylinder (axis along the patch's v direction)
+  sphere,    // the same lattice bent onto a sphere (u = longitude, v = latitude, times radius)
+  mesh,      // particles at the vertices of a remeshed surface (explicit neighbours, cell grid)
+};
+
+// The constant part of one patch: topology, rest geometry, material and derived constants.
+// Built once (build_charged_patch / build_charged_on_mesh); shared read-only by every state.
+struct ChargedModel {
+  ChargedMaterialDef material;
+  ChargedLayout layout = ChargedLayout::flat;
+  double coulomb_kqq = 0;  // N·m², k_e · q_hip · q_particle (k_e = 8.9875517923e9 N·m²/C²)
+
+  // Generated lattices (layout != mesh): particle index = r * cols + c, rows along v, columns
+  // along u; odd rows are shifted by spacing/2 along u (hexagonal tessellation).
+  int rows = 0, cols = 0;
+  double spacing = 0;       // m, rest distance between lattice neighbours in (u, v)
+  double row_pitch = 0;     // m, spacing · √3/2, distance between rows in v
+  double u_mid = 0, v_mid = 0;  // m, lattice (u, v) of the patch centre
+  Vec3 center = Vec3::Zero();   // m, patch centre (on the surface)
+  Vec3 normal = Vec3::UnitY();  // unit outward normal at the centre
+  Vec3 tangent_u = Vec3::UnitX(), tangent_v = Vec3::UnitZ();  // unit, (u, v, normal) right-handed
+  double radius = 0;        // m, cylinder or sphere radius
+
+  // Per particle, n = size(): rest positions and outward normals (hot data, structure of arrays).
+  std::vector<float> origin_x, origin_y, origin_z;                // (n) m
+  std::vector<std::int16_t> normal_x, normal_y, normal_z;         // (n) unit normal · 32767
+  // Mesh patches only: (n x 6) neighbour indices, row-major, -1 = none. Lattices: empty (implicit).
+  std::vector<std::int32_t> neighbours;
+  // Mesh patches only: uniform cell grid over the origins; particles are sorted by cell, so cell
+  // k holds particles cell_start[k] .. cell_start[k+1]-1 and has linear key cell_key[k].
+  double cell_size = 0;                 // m
+  Vec3 grid_min = Vec3::Zero();         // m
+  std::array<std::int64_t, 3> grid_dims{0, 0, 0};
+  std::vector<std::int64_t> cell_key;   // (#cells) ascending
+  std::vector<std::int32_t> cell_start; // (#cells + 1)
+
+  // Cold data, for drawing only: triangles over the particles (lattice or remeshed surface).
+  std::vector<std::array<int, 3>> triangles;
+
+  size_t size() const { return origin_x.size(); }
+  Vec3 origin(size_t i) const { return Vec3(origin_x[i], origin_y[i], origin_z[i]); }
+  Vec3 particle_normal(size_t i) const {
+    return Vec3(normal_x[i], normal_y[i], normal_z[i]) / 32767.0;
+  }
+  // Neighbours of particle i into out[0..5]; returns how many (≤ 6).
+  int neighbours_of(int i, std::array<int, 6>& out) const noexcept;
+};
+
+// A punctured hole: where the tool went through, and whether it is in the hole now.
+struct ChargedHole {
+  Vec3 center = Vec3::Zero();  // m, HIP position at the puncture
+  Vec3 axis = Vec3::Zero();    // unit, the tool's axis at the puncture (the track's direction)
+  bool in_track = false;       // the tool passes through the hole now
+  bool open = false;           // slot in use
+};
+
+// What the last step did (for figures, tests and the ChainMail cost check).
+struct ChargedStepStats {
+  int contacts = 0;              // particles within the sphere of influence of the HIP
+  int pinned = 0;                // of those, at maximum displacement
+  long propagation_visits = 0;   // neighbour pairs examined by the separation rule this tick
+  long propagation_moves = 0;    // particles moved by the separation rule this tick
+  int propagation_overflows = 0; // ticks where the propagation hit its safety bound (never, normally)
+  long candidates = 0;           // particles examined by the lattice/grid search this tick
+  double max_displacement = 0;   // m, largest |position - origin| among active particles
+  long numeric_resets = 0;       // numerical troubles recovered since build (zero force + reset)
+};
+
+inline constexpr int kChargedMaxHoles = 16;
+inline constexpr int kChargedEventCapacity = 32;
+
+// Everything that changes while a patch is stepped. Copying it is a snapshot; reset() restores rest.
+struct ChargedState {
+  std::vector<float> x, y, z;         // (n) m, particle positions
+  std::vector<std::uint8_t> flags;    // (n) bit 0 active, bit 1 queued, bit 2 charge reversed (hole)
+  std::vector<std::int32_t> active;   // (n) capacity: particles away from their origin, first active_count
+  std::vector<std::int32_t> queue;    // (n) ring: the separation rule's work queue (scratch)
+  size_t active_count = 0;
+  std::array<ChargedHole, kChargedMaxHoles> holes{};
+  int next_hole = 0;                  // slot the next puncture uses (oldest reused when full)
+  Vec3 force = Vec3::Zero();          // N, force of the tissue on the HIP (what the device gets)
+  double time = 0;                    // s
+  double contact_peak = 0;            // N, largest |force| since the HIP last came into contact
+  ChargedStepStats stats;
+  std::array<TissueEvent, kChargedEventCapacity> events{};  // ring of undrained events
+  size_t event_head = 0, event_count = 0;
+  long events_dropped = 0;
+
+  Vec3 position(size_t i) const { return Vec3(x[i], y[i], z[i]); }
+  bool reversed(size_t i) const { return (flags[i] & 4u) != 0; }
+};
+
+// The haptic interaction point as the kernel sees it. A needle's shaft runs from
+// position - axis * shaft_length to position; a sphere probe has shaft_length 0.
+struct ChargedHip {
+  Vec3 position = Vec3::Zero();  // m, the HIP (sphere centre or needle tip)
+  Vec3 axis = Vec3(0, -1, 0);    // unit, handle → tip
+  Vec3 velocity = Vec3::Zero();  // m/s
+  double shaft_length = 0;       // m
+};
+
+// A generated rectangular hexagonal patch (flat, or bent onto a cylinder or sphere).
+// Errors name `where` (e.g. "scene.yaml:12: tissue 'skin'") and the offending key.
+Result<ChargedModel> build_charged_patch(const PatchDef& patch, const ChargedMaterialDef& material,
+                                         const std::string& where = "patch");
+
+// A patch laid on a triangulated surface: isotropic remeshing (CGAL) to material.mesh_spacing,
+// particles at the vertices, neighbours along the edges (the six shortest where a vertex has more),
+// origins on the surface, outward normals. The surface must be manifold and counter-clockwise.
+Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface,
+                                           const ChargedMaterialDef& material,
+                                           const std::string& where = "mesh");
+
+// The state at rest for `model` (allocates every scratch array the step will ever need).
+ChargedState make_charged_state(const ChargedModel& model);
+// Back to rest without allocating: positions at origins, no holes, no events, zero force.
+void reset(const ChargedModel& model, ChargedState& state) noexcept;
+
+// One tick of the model, dt seconds (docs/models/charged-particles.md): HIP update, repulsion,
+// propagation (separation rule), relaxation (elasticity), force. Returns the force of the tissue on
+// the HIP, N. noexcept, allocation-free, deterministic. `tissue` tags the events it emits.
+Vec3 step(const ChargedModel& model, ChargedState& state, const ChargedHip& hip, double dt,
+          int tissue = -1) noexcept;
+
+// Move undrained events into `out` (oldest first); returns how many. Never allocates.
+size_t drain_events(ChargedState& state, std::span<TissueEvent> out) noexcept;
+
+// Bytes per particle of the model's and state's per-particle arrays (hot simulation data; the
+// cold drawing triangles and the mesh's cell table are excluded and reported separately).
+size_t charged_bytes_per_particle(const ChargedModel& model);
+
+// Repulsion magnitude between the HIP and one particle at distance r (force-shifted Coulomb law):
+// k q_h q_p (1/max(r, r_floor)² − 1/R²) for r < R, else 0; R = sphere of influence, r_floor = R/10.
+double charged_repulsion(double kqq, double r, double sphere_of_influence) noexcept;
+// Attraction of a charge-reversed (punctured) particle: the same law outside R/2, and inside it
+// falls linearly to zero at r = 0, so it is continuous and centres the tool in the hole.
+double charged_attraction(double kqq, double r, double sphere_of_influence) noexcept;
+
+}  // namespace palpate

@@ -1,0 +1,126 @@
+// palpate/render.h — off-screen (headless) images: shaded surfaces, particles, lines, the tool and
+// the force arrow, drawn by software OpenGL (OSMesa) into memory or a PNG file. Never called from
+// the physics: it reads plain arrays that a snapshot filled.
+#pragma once
+
+#include <palpate/core.h>
+#include <palpate/scene.h>
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace palpate {
+
+// A triangle surface, e.g. a SurfaceBuffers' arrays. The spans refer to the caller's memory,
+// which must outlive the render call.
+struct RenderSurface {
+  std::span<const float> positions;     // (#P x 3) m
+  std::span<const float> normals;       // (#P x 3) unit; empty: area-weighted from the triangles
+  std::span<const uint32_t> triangles;  // (#T x 3) counter-clockwise seen from the front
+  Vec3f color = Vec3f(0.86f, 0.47f, 0.45f);  // RGB in [0, 1]; the default is tissue pink
+  bool wireframe = false;               // also draw the triangles' edges, darker
+};
+
+// Particles or masses as round dots of a fixed size on screen.
+struct RenderPoints {
+  std::span<const Vec3f> points;        // m
+  Vec3f color = Vec3f(0.15f, 0.35f, 0.9f);
+  float size = 4.0f;                    // pixels (of the final image)
+};
+
+// Line segments between points: a control grid, springs, neighbour links.
+struct RenderLines {
+  std::span<const Vec3f> points;                // m
+  std::span<const std::array<int, 2>> segments; // indices into points
+  Vec3f color = Vec3f(0.2f, 0.2f, 0.25f);
+  float width = 1.0f;                           // pixels (of the final image)
+};
+
+// The tool: a sphere around `tip`, or a needle, a cylinder from tip − length·axis to tip.
+struct RenderTool {
+  std::string kind = "sphere";          // sphere | needle, as ToolDef::kind
+  Vec3 tip = Vec3::Zero();              // m, the HIP
+  Vec3 axis = Vec3(0, -1, 0);           // unit, handle to tip (needle)
+  double radius = 0.001;                // m
+  double length = 0.08;                 // m, needle shaft length
+  Vec3f color = Vec3f(0.72f, 0.74f, 0.78f);  // steel
+};
+
+// The force on the tool as an arrow from `origin` along `force`, drawn over everything else so
+// it is never hidden inside the tissue.
+struct RenderArrow {
+  Vec3 origin = Vec3::Zero();           // m, usually the tool's tip
+  Vec3 force = Vec3::Zero();            // N
+  double length_per_newton = 0.01;      // m/N, drawn length = |force| · this
+  Vec3f color = Vec3f(1.0f, 0.8f, 0.1f);
+};
+
+// Everything one image shows. Lit by a light above-left of the camera, fixed to it.
+struct RenderScene {
+  CameraDef camera;                     // position, target, vertical fov (deg), width, height (px)
+  std::vector<RenderSurface> surfaces;
+  std::vector<RenderPoints> points;
+  std::vector<RenderLines> lines;
+  std::optional<RenderTool> tool;
+  std::optional<RenderArrow> force;
+  Vec3f background = Vec3f(0.12f, 0.13f, 0.16f);
+  int supersample = 2;                  // render at k x k the size and average down (anti-aliasing), 1..4
+};
+
+// An 8-bit RGBA image, rows top to bottom.
+struct Image {
+  int width = 0, height = 0;
+  std::vector<uint8_t> rgba;            // (height x width x 4)
+  const uint8_t* pixel(int x, int y) const { return &rgba[(size_t(y) * width + x) * 4]; }
+};
+
+// Draw the scene off-screen (no window, no GPU). Fails, naming the element and what was
+// expected, on a bad camera (size outside 1..4096 pixels, fov outside (0, 180) degrees, position
+// equal to target, non-finite values), a span whose size is not a multiple of 3, normals not
+// matching positions, an index out of range, an unknown tool kind; or when OpenGL is unavailable.
+Result<Image> render_rgba(const RenderScene& scene);
+
+// render_rgba, then write_png.
+Status render_png(const RenderScene& scene, const std::filesystem::path& file);
+
+// Write a PNG atomically: to a temporary file beside `file`, renamed over it when complete, so
+// a reader never sees half an image. Fails naming the file when it cannot be written.
+Status write_png(const Image& image, const std::filesystem::path& file);
+
+// Where a point lands in the camera's image: x to the right, y down, in pixels from the image's
+// top-left corner (a pixel's centre is at +0.5); nothing for a point behind the camera. The same
+// projection render_rgba uses.
+std::optional<Eigen::Vector2d> project_to_pixel(const CameraDef& camera, const Vec3& point);
+
+// Segments joining each control point of a rows x cols row-major grid to its right and lower
+// neighbours: the control net drawn as lines.
+std::vector<std::array<int, 2>> grid_lines(int rows, int cols);
+
+
+// --- Frames of a scene: tissue snapshots drawn as their smooth surfaces, the tool, the force.
+struct TissueSnapshot;
+
+struct FrameOptions {
+  bool particles = false;   // the particles / masses as points
+  bool links = false;       // neighbour links or springs as lines
+  int resolution = 6;       // Bézier segments per patch edge (grids) / PN level (meshes)
+};
+
+// Draw one frame: each tissue's surface (a grid snapshot as the seed's Bézier patches, a
+// triangle snapshot smoothed with PN triangles), the tool at `tip`, the force arrow, from the
+// scene's camera (or a camera framing every snapshot when the scene has none). Allocates:
+// call it off the haptic thread, from copied snapshots.
+Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
+                                const Vec3& tip, const Vec3& force, const FrameOptions& options,
+                                std::vector<std::vector<float>>& storage,
+                                std::vector<std::vector<uint32_t>>& index_storage);
+Status render_frame_png(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
+                        const Vec3& tip, const Vec3& force, const std::filesystem::path& file,
+                        const FrameOptions& options = {});
+
+}  // namespace palpate

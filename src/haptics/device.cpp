@@ -1,0 +1,35 @@
+// device.cpp — make_device: the backend a scene's `device.kind` names, with its limits.
+#include <palpate/device.h>
+
+namespace palpate {
+
+Result<std::unique_ptr<Device>> make_device(const SceneDef& scene) {
+  const DeviceDef& d = scene.device;
+  DeviceLimits limits;
+  limits.max_force = d.max_force;
+  limits.max_force_rate = d.max_force_rate;
+  limits.stiffness = d.stiffness;
+  limits.damping = d.damping;
+  const std::string where = scene.file.empty() ? std::string("scene") : scene.file.string();
+  if (d.kind == "scripted") {
+    std::vector<Waypoint> points = d.waypoints;
+    if (!d.trajectory.empty()) {
+      auto loaded = load_trajectory_csv(d.trajectory);
+      if (!loaded) return loaded.error();
+      points = std::move(*loaded);
+    }
+    return std::unique_ptr<Device>(new ScriptedDevice(std::move(points), limits));
+  }
+  if (d.kind == "replay") {
+    if (d.recording.empty())
+      return Error{where + ": device kind 'replay' needs device.recording (a run's run.csv)"};
+    auto samples = load_recording_csv(d.recording);
+    if (!samples) return samples.error();
+    return std::unique_ptr<Device>(new ReplayDevice(std::move(*samples), limits));
+  }
+  if (d.kind == "openhaptics") return open_openhaptics(d.hd_library, d.hd_device, limits);
+  return Error{where + ": device kind '" + d.kind +
+               "' is not one of scripted | replay | openhaptics (use kind: scripted)"};
+}
+
+}  // namespace palpate

@@ -1,0 +1,370 @@
+// loop.cpp — HapticLoop: the fixed-period haptic thread (read device → step tissues → render →
+// watchdog → safety → write device → record), its headless form and its live statistics.
+#include <palpate/haptics.h>
+#include <palpate/tissue.h>
+
+#include "haptics/contact.h"
+#include "haptics/histogram.h"
+#include "haptics/multirate.h"
+#include "haptics/pacing.h"
+#include "haptics/recorder.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <thread>
+
+namespace palpate {
+
+namespace {
+
+// Row layout of run.csv; tissue figures follow the fixed columns (and the proxy's, if any).
+enum Col : size_t {
+  kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kTick,
+  kQw, kQx, kQy, kQz, kButtons, kEvents, kFixedColumns
+};
+
+// A double shared between threads, written by one.
+struct RelaxedDouble {
+  std::atomic<double> v{0};
+  void set(double x) noexcept { v.store(x, std::memory_order_relaxed); }
+  double get() const noexcept { return v.load(std::memory_order_relaxed); }
+};
+struct RelaxedCount {
+  std::atomic<std::uint64_t> v{0};
+  void set(std::uint64_t x) noexcept { v.store(x, std::memory_order_relaxed); }
+  void inc() noexcept { set(get() + 1); }
+  std::uint64_t get() const noexcept { return v.load(std::memory_order_relaxed); }
+};
+
+TimingFigures figures_of(const LatencyHistogram& h) {
+  return {h.percentile(0.5), h.percentile(0.99), h.max()};
+}
+
+}  // namespace
+
+struct HapticLoop::Impl {
+  struct Slot {
+    Tissue* tissue = nullptr;
+    std::unique_ptr<PhysicsWorker> worker;  // null: stepped on the haptic thread
+    size_t figure_offset = 0, figure_count = 0;
+  };
+
+  Device& device;
+  LoopSettings s;
+  std::vector<Slot> slots;
+  ForceSafety safety;
+  CouplingModel coupling;
+  ProxyState proxy;
+  ContactEstimator proxy_estimator{1e7};  // N/m bound: the tissue's own stiffness, not the device's
+  std::vector<std::string> columns;
+  size_t proxy_col = 0;
+  std::vector<double> row;               // one tick's record (sized once)
+  std::vector<TissueEvent> event_buf;
+  std::unique_ptr<Recorder> recorder;
+  std::vector<std::vector<double>> series;
+  std::vector<Event> events;
+
+  // Haptic-thread state.
+  ToolState tool;
+  DeviceState state;
+  Vec3 last_good_position = Vec3::Zero();
+  std::uint64_t k = 0;                   // ticks done
+  bool headless_now = false;
+
+  // Shared with readers (live statistics); written only by the haptic thread.
+  LatencyHistogram period_h, step_h;
+  RelaxedCount ticks, misses, resyncs, non_finite, step_failed, clamped, rate_limited, overrun,
+      stalled, device_failed;
+  RelaxedDouble max_force, fx, fy, fz, px, py, pz;
+  std::atomic<bool> running{false}, stop_requested{false}, priority{false};
+  std::thread thread;
+
+  Impl(Device& d, const LoopSettings& settings)
+      : device(d), s(settings), safety(d.limits(), settings.ramp_in) {}
+
+  void publish_counters() noexcept {
+    const SafetyCounters& c = safety.counters();
+    non_finite.set(c.non_finite), step_failed.set(c.step_failed), clamped.set(c.clamped);
+    rate_limited.set(c.rate_limited), overrun.set(c.overrun), stalled.set(c.stalled);
+    device_failed.set(c.device_failed);
+  }
+
+  // One tick. `deadline_ns`: when this tick's work must be done (realtime), 0 headless.
+  void tick(std::int64_t deadline_ns) noexcept {
+    const double dt = s.dt;
+    const double t = double(k + 1) * dt;
+    TickFault fault = TickFault::none;
+
+    // 1. Device. A failed read or a non-finite pose holds the last good position.
+    const bool read_ok = device.read(t, state);
+    if (!read_ok || !state.position.allFinite() || !state.velocity.allFinite() ||
+        !state.orientation.coeffs().allFinite()) {
+      fault = TickFault::device_failed;
+      state.position = last_good_position;
+      state.velocity.setZero();
+      state.orientation = Quat::Identity();
+    } else {
+      last_good_position = state.position;
+    }
+    const bool virtual_coupling = s.coupling == Coupling::virtual_;
+    tool.time = t;
+    tool.tip = virtual_coupling ? proxy.position : state.position;
+    tool.velocity = virtual_coupling ? proxy.velocity : state.velocity;
+    tool.grasp = (state.buttons & 1u) != 0;
+
+    // 2. Tissues: inline ones step now; multi-rate ones render their linearised contact.
+    const std::int64_t now = deadline_ns ? monotonic_ns() : 0;
+    Vec3 f_inline = Vec3::Zero(), f_rendered = Vec3::Zero();
+    Mat3 j_rendered = Mat3::Zero();
+    for (Slot& sl : slots) {
+      std::span<double> figs(row.data() + sl.figure_offset, sl.figure_count);
+      if (sl.worker) {
+        Vec3 f;
+        const TickFault tf =
+            sl.worker->render(tool, now, headless_now ? 0.0 : s.watchdog.stall_timeout, f, figs);
+        if (tf != TickFault::none && fault == TickFault::none) fault = tf;
+        f_rendered += f;
+        j_rendered += sl.worker->jacobian();
+      } else {
+        f_inline += sl.tissue->step(tool, dt);
+        sl.tissue->figures(figs);
+      }
+    }
+    const Vec3 f_tissue = f_inline + f_rendered;
+
+    // 3. Rendering: the HIP's force, or the proxy's coupling force.
+    Vec3 request = f_tissue;
+    if (virtual_coupling) {
+      if (f_tissue.allFinite()) {
+        proxy_estimator.update(tool.tip, f_inline);
+        request = step_proxy(coupling, proxy, state.position, state.velocity, f_tissue,
+                             proxy_estimator.jacobian() + j_rendered, dt);
+      }
+      if (!f_tissue.allFinite() || !proxy.position.allFinite() || fault != TickFault::none) {
+        proxy.position = state.position;  // start again at the device, at rest
+        proxy.velocity.setZero();
+        proxy_estimator.reset();
+      }
+    }
+
+    // 4. Watchdog: work past its deadline by more than the margin sends zero.
+    if (deadline_ns && fault == TickFault::none &&
+        double(monotonic_ns() - deadline_ns) * 1e-9 > s.watchdog.overrun_margin)
+      fault = TickFault::overrun;
+
+    // 5. Safety, then the device.
+    const Vec3 sent = safety.filter(request, dt, fault);
+    device.write(sent, Vec3::Zero());
+
+    // 6. Record.
+    double* r = row.data();
+    r[kT] = t;
+    r[kToolX] = state.position.x(), r[kToolY] = state.position.y(), r[kToolZ] = state.position.z();
+    r[kForceX] = sent.x(), r[kForceY] = sent.y(), r[kForceZ] = sent.z();
+    const double fn = sent.norm();
+    r[kForceN] = fn;
+    r[kTick] = double(k);
+    r[kQw] = state.orientation.w(), r[kQx] = state.orientation.x();
+    r[kQy] = state.orientation.y(), r[kQz] = state.orientation.z();
+    r[kButtons] = double(state.buttons);
+    r[kEvents] = double(safety.last_events());
+    if (proxy_col) {
+      r[proxy_col] = proxy.position.x(), r[proxy_col + 1] = proxy.position.y();
+      r[proxy_col + 2] = proxy.position.z();
+    }
+    if (recorder) {
+      if (headless_now)
+        recorder->push_wait(row);
+      else
+        recorder->push(row);
+    }
+    for (size_t i = 0; i < slots.size(); ++i) {
+      size_t n = 0;
+      while ((n = slots[i].worker ? slots[i].worker->drain_events(event_buf)
+                                  : slots[i].tissue->drain_events(event_buf)) > 0)
+        for (size_t e = 0; e < n; ++e)
+          if (recorder)
+            (void)recorder->push_event({event_buf[e].time, event_buf[e].kind, int(i),
+                                        event_buf[e].depth, event_buf[e].force});
+    }
+
+    // 7. Live figures.
+    ++k;
+    ticks.set(k);
+    if (fn > max_force.get()) max_force.set(fn);
+    fx.set(sent.x()), fy.set(sent.y()), fz.set(sent.z());
+    px.set(state.position.x()), py.set(state.position.y()), pz.set(state.position.z());
+    publish_counters();
+  }
+
+  void thread_main() noexcept {
+    if (s.try_realtime_priority) priority.store(try_realtime_priority(80));
+    const auto period = static_cast<std::int64_t>(std::llround(s.dt * 1e9));
+    const auto spin = static_cast<std::int64_t>(s.spin * 1e9);
+    std::int64_t next = monotonic_ns() + period;
+    std::int64_t prev_wake = 0;
+    while (!stop_requested.load(std::memory_order_acquire) && (s.max_ticks == 0 || k < s.max_ticks)) {
+      sleep_until_ns(next, spin);
+      const std::int64_t wake = monotonic_ns();
+      if (prev_wake) period_h.add(double(wake - prev_wake) * 1e-9);
+      prev_wake = wake;
+      tick(next + period);
+      const std::int64_t end = monotonic_ns();
+      step_h.add(double(end - wake) * 1e-9);
+      if (end > next + period) misses.inc();
+      next += period;
+      if (end > next + 10 * period) {  // far behind (the process was stopped): start afresh
+        next = end + period;
+        resyncs.inc();
+      }
+    }
+    device.write(Vec3::Zero(), Vec3::Zero());
+    running.store(false, std::memory_order_release);
+  }
+};
+
+HapticLoop::HapticLoop(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+HapticLoop::~HapticLoop() {
+  stop();
+  if (impl_->recorder) (void)impl_->recorder->close();
+}
+
+Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vector<LoopTissue> tissues,
+                                                       const LoopSettings& settings) {
+  if (!(settings.dt > 0) || !std::isfinite(settings.dt))
+    return Error{"haptic loop: dt must be a positive number of seconds"};
+  auto impl = std::make_unique<Impl>(device, settings);
+  Impl& m = *impl;
+  m.coupling = make_coupling(device.limits(), settings.proxy_mass, settings.coupling_stiffness);
+  m.tool.radius = settings.tool.radius;
+  m.tool.needle = settings.tool.kind == "needle";
+  m.tool.length = m.tool.needle ? settings.tool.length : 0.0;
+  m.tool.axis = settings.tool.axis.norm() > 0 ? Vec3(settings.tool.axis.normalized()) : Vec3(0, -1, 0);
+  m.columns = {"t", "tool_x", "tool_y", "tool_z", "force_x", "force_y", "force_z", "force_N",
+               "tick", "tool_qw", "tool_qx", "tool_qy", "tool_qz", "buttons", "events"};
+  if (settings.coupling == Coupling::virtual_) {
+    m.proxy_col = m.columns.size();
+    for (const char* c : {"proxy_x", "proxy_y", "proxy_z"}) m.columns.push_back(c);
+  }
+  // The proxy starts where the device is.
+  DeviceState first;
+  if (device.read(0.0, first) && first.position.allFinite()) {
+    m.proxy.position = first.position;
+    m.last_good_position = first.position;
+  }
+  for (size_t i = 0; i < tissues.size(); ++i) {
+    const LoopTissue& lt = tissues[i];
+    if (!lt.tissue) return Error{"haptic loop: tissue " + std::to_string(i) + " is null"};
+    if (lt.physics_dt < 0 || !std::isfinite(lt.physics_dt))
+      return Error{"haptic loop: tissue '" + lt.tissue->name() + "': physics_dt must be >= 0 s"};
+    Impl::Slot sl;
+    sl.tissue = lt.tissue;
+    sl.figure_offset = m.columns.size();
+    for (const auto& f : lt.tissue->figure_names()) m.columns.push_back(lt.tissue->name() + "." + f);
+    sl.figure_count = m.columns.size() - sl.figure_offset;
+    if (lt.physics_dt > 0)
+      sl.worker = std::make_unique<PhysicsWorker>(*lt.tissue, int(i), lt.physics_dt, settings.dt,
+                                                  device.limits().stiffness, settings.realtime);
+    m.slots.push_back(std::move(sl));
+  }
+  m.row.assign(m.columns.size(), 0.0);
+  m.event_buf.resize(64);
+  if (!settings.csv.empty()) {
+    std::vector<ColumnFormat> formats(m.columns.size(), ColumnFormat::number);
+    formats[kTick] = formats[kButtons] = ColumnFormat::integer;
+    formats[kEvents] = ColumnFormat::safety_events;
+    RecorderOptions ro;
+    ro.capacity_rows = settings.recorder_capacity;
+    ro.keep_columns = {kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN};
+    auto rec = Recorder::open(settings.csv, m.columns, formats, ro);
+    if (!rec) return rec.error();
+    m.recorder = std::move(*rec);
+  }
+  return std::unique_ptr<HapticLoop>(new HapticLoop(std::move(impl)));
+}
+
+Status HapticLoop::start() {
+  Impl& m = *impl_;
+  if (!m.s.realtime) return Error{"haptic loop: built for headless runs (settings.realtime = false)"};
+  if (m.running.load() || m.thread.joinable()) return Error{"haptic loop: already started"};
+  for (auto& sl : m.slots)
+    if (sl.worker) sl.worker->start();
+  m.stop_requested.store(false);
+  m.running.store(true);
+  m.thread = std::thread([&m] { m.thread_main(); });
+  return {};
+}
+
+void HapticLoop::stop() {
+  Impl& m = *impl_;
+  m.stop_requested.store(true, std::memory_order_release);
+  if (m.thread.joinable()) m.thread.join();
+  for (auto& sl : m.slots)
+    if (sl.worker) sl.worker->stop();
+  m.running.store(false);
+}
+
+void HapticLoop::wait() {
+  Impl& m = *impl_;
+  if (m.thread.joinable()) m.thread.join();
+  stop();
+}
+
+void HapticLoop::run_headless(std::uint64_t ticks) {
+  Impl& m = *impl_;
+  m.headless_now = true;
+  for (auto& sl : m.slots)
+    if (sl.worker) sl.worker->start();
+  for (std::uint64_t i = 0; i < ticks; ++i) {
+    const std::int64_t start = monotonic_ns();
+    m.tick(0);
+    m.step_h.add(double(monotonic_ns() - start) * 1e-9);
+  }
+  m.headless_now = false;
+}
+
+LoopStats HapticLoop::stats() const {
+  const Impl& m = *impl_;
+  LoopStats st;
+  st.ticks = m.ticks.get();
+  st.period = figures_of(m.period_h);
+  st.step = figures_of(m.step_h);
+  st.deadline_misses = m.misses.get();
+  st.resyncs = m.resyncs.get();
+  st.safety.non_finite = m.non_finite.get();
+  st.safety.step_failed = m.step_failed.get();
+  st.safety.clamped = m.clamped.get();
+  st.safety.rate_limited = m.rate_limited.get();
+  st.safety.overrun = m.overrun.get();
+  st.safety.stalled = m.stalled.get();
+  st.safety.device_failed = m.device_failed.get();
+  st.recorder_dropped = m.recorder ? m.recorder->dropped() : 0;
+  st.max_force = m.max_force.get();
+  st.last_force = Vec3(m.fx.get(), m.fy.get(), m.fz.get());
+  st.last_position = Vec3(m.px.get(), m.py.get(), m.pz.get());
+  st.realtime_priority = m.priority.load();
+  st.running = m.running.load();
+  return st;
+}
+
+Status HapticLoop::finish_recording() {
+  Impl& m = *impl_;
+  if (!m.recorder) return {};
+  if (m.running.load()) return Error{"haptic loop: stop() before finish_recording()"};
+  Status st = m.recorder->close();
+  m.series.clear();
+  for (size_t i = 0; i < kForceN + 1; ++i) m.series.push_back(m.recorder->kept(i));
+  m.events.clear();
+  for (const RecorderEvent& e : m.recorder->events())
+    m.events.push_back({e.time, e.kind, e.tissue, e.depth, e.force});
+  return st;
+}
+
+const std::vector<std::vector<double>>& HapticLoop::series() const { return impl_->series; }
+const std::vector<HapticLoop::Event>& HapticLoop::events() const { return impl_->events; }
+const std::vector<std::string>& HapticLoop::columns() const { return impl_->columns; }
+
+}  // namespace palpate

@@ -1,0 +1,119 @@
+// multirate.cpp — the physics worker's thread, its step and the haptic side's linearised render.
+#include "haptics/multirate.h"
+
+#include "haptics/pacing.h"
+
+#include <palpate/haptics.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace palpate {
+
+PhysicsWorker::PhysicsWorker(Tissue& tissue, int index, double physics_dt, double haptic_dt,
+                             double max_stiffness, bool threaded)
+    : tissue_(tissue),
+      index_(index),
+      physics_dt_(physics_dt),
+      haptic_dt_(haptic_dt),
+      threaded_(threaded),
+      estimator_(max_stiffness),
+      event_scratch_(64) {
+  every_ = std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(physics_dt / haptic_dt)));
+  PhysicsSnapshot init;
+  init.figures.assign(tissue.figure_names().size(), 0.0);
+  out_.fill(init);
+}
+
+PhysicsWorker::~PhysicsWorker() { stop(); }
+
+void PhysicsWorker::start() {
+  started_ns_ = monotonic_ns();
+  if (!threaded_ || thread_.joinable()) return;
+  stop_.store(false);
+  thread_ = std::thread([this] { physics_main(); });
+}
+
+void PhysicsWorker::stop() {
+  stop_.store(true, std::memory_order_release);
+  if (thread_.joinable()) thread_.join();
+}
+
+void PhysicsWorker::physics_step(const ToolState& tool) noexcept {
+  const Vec3 f = tissue_.step(tool, physics_dt_);
+  PhysicsSnapshot& s = out_.write_slot();
+  s.ok = f.allFinite() && tool.tip.allFinite();
+  if (s.ok) {
+    // The model's own stiffness when it offers one, else the secant estimate across its steps.
+    Mat3 j;
+    const auto* src = dynamic_cast<const ContactJacobianSource*>(&tissue_);
+    if (src && src->contact_jacobian(j))
+      estimator_.set_jacobian(j);
+    else
+      estimator_.update(tool.tip, f);
+    s.contact.x0 = tool.tip;
+    s.contact.f0 = f;
+    s.contact.jacobian = estimator_.jacobian();
+  } else {
+    estimator_.reset();
+    s.contact = ContactLinearisation{};
+  }
+  tissue_.figures(s.figures);
+  s.seq = ++seq_;
+  s.published_ns = monotonic_ns();
+  out_.publish();
+  size_t n = 0;
+  while ((n = tissue_.drain_events(event_scratch_)) > 0)
+    for (size_t i = 0; i < n; ++i) {
+      event_scratch_[i].tissue = index_;
+      (void)events_.try_push({&event_scratch_[i], 1});  // full: dropped (256 pending is plenty)
+    }
+  steps_.store(steps_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+}
+
+void PhysicsWorker::physics_main() noexcept {
+  const auto period = static_cast<std::int64_t>(physics_dt_ * 1e9);
+  std::int64_t next = monotonic_ns();
+  while (!stop_.load(std::memory_order_acquire)) {
+    tool_in_.update();
+    physics_step(tool_in_.read());
+    next += period;
+    const std::int64_t now = monotonic_ns();
+    if (now > next + 10 * period) next = now;  // fell far behind: don't try to catch up
+    sleep_until_ns(next, 0);
+  }
+}
+
+TickFault PhysicsWorker::render(const ToolState& tool, std::int64_t now_ns, double stall_timeout,
+                                Vec3& force, std::span<double> figures) noexcept {
+  if (threaded_) {
+    tool_in_.write_slot() = tool;
+    tool_in_.publish();
+  } else if (tick_++ % every_ == 0) {
+    physics_step(tool);
+  }
+  out_.update();
+  const PhysicsSnapshot& s = out_.read();
+  const size_t nf = std::min(figures.size(), s.figures.size());
+  std::copy_n(s.figures.begin(), nf, figures.begin());
+  force.setZero();
+  if (threaded_ && stall_timeout > 0) {
+    const std::int64_t since = s.seq ? s.published_ns : started_ns_;
+    if (double(now_ns - since) * 1e-9 > stall_timeout) return TickFault::stalled;
+  }
+  if (s.seq == 0) return TickFault::none;
+  if (!s.ok) return TickFault::step_failed;
+  force = s.contact.force_at(tool.tip);
+  return TickFault::none;
+}
+
+size_t PhysicsWorker::drain_events(std::span<TissueEvent> out) noexcept {
+  size_t n = 0;
+  for (std::span<const TissueEvent> e = events_.front(); !e.empty() && n < out.size(); e = events_.front()) {
+    out[n++] = e[0];
+    events_.pop();
+  }
+  return n;
+}
+
+}  // namespace palpate

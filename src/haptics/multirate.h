@@ -1,0 +1,77 @@
+// multirate.h — PhysicsWorker: a tissue too large for a 1 ms step, stepped on its own thread at
+// its own rate; the haptic thread renders its force at 1 kHz from the contact model linearised at
+// its last step, exchanged through lock-free triple buffers (neither side ever blocks).
+#pragma once
+
+#include <palpate/core.h>
+#include <palpate/safety.h>
+#include <palpate/tissue.h>
+
+#include "haptics/contact.h"
+#include "haptics/spsc_ring.h"
+#include "haptics/triple_buffer.h"
+
+#include <atomic>
+#include <cstdint>
+#include <span>
+#include <thread>
+#include <vector>
+
+namespace palpate {
+
+// What a physics step publishes: the linearised contact and the tissue's figures at that step.
+struct PhysicsSnapshot {
+  ContactLinearisation contact;
+  std::uint64_t seq = 0;          // 0 = nothing published yet
+  std::int64_t published_ns = 0;  // CLOCK_MONOTONIC when published
+  bool ok = true;                 // false when the step's force was not finite
+  std::vector<double> figures;    // the tissue's figures (sized once, filled in place)
+};
+
+class PhysicsWorker {
+ public:
+  // `max_stiffness` (N/m): the rendered stiffness's bound (the device's). `threaded`: false steps
+  // inline from render() every physics_dt/dt ticks (headless, deterministic).
+  PhysicsWorker(Tissue& tissue, int index, double physics_dt, double haptic_dt, double max_stiffness,
+                bool threaded);
+  ~PhysicsWorker();
+  PhysicsWorker(const PhysicsWorker&) = delete;
+  PhysicsWorker& operator=(const PhysicsWorker&) = delete;
+
+  void start();
+  void stop();
+
+  // Haptic thread, every tick: hand over the tool, render F0 + J·(x − x0) at the tool's tip into
+  // `force`, copy the last figures into `figures`. Returns `stalled` when threaded and nothing was
+  // published for `stall_timeout` s (counted from start), `step_failed` for a non-finite step.
+  TickFault render(const ToolState& tool, std::int64_t now_ns, double stall_timeout, Vec3& force,
+                   std::span<double> figures) noexcept;
+  // The Jacobian of the last published contact (for the virtual coupling).
+  const Mat3& jacobian() const noexcept { return out_.read().contact.jacobian; }
+  // Haptic thread: move tissue events the physics side queued into `out`.
+  size_t drain_events(std::span<TissueEvent> out) noexcept;
+  std::uint64_t physics_steps() const noexcept { return steps_.load(std::memory_order_relaxed); }
+
+ private:
+  void physics_main() noexcept;
+  void physics_step(const ToolState& tool) noexcept;
+
+  Tissue& tissue_;
+  int index_;
+  double physics_dt_, haptic_dt_;
+  bool threaded_;
+  std::uint64_t every_ = 1;   // inline: step every this many ticks
+  std::uint64_t tick_ = 0;    // inline: haptic ticks seen
+  ContactEstimator estimator_;
+  TripleBuffer<ToolState> tool_in_;
+  TripleBuffer<PhysicsSnapshot> out_;
+  SpscRing<TissueEvent> events_{256, 1};
+  std::vector<TissueEvent> event_scratch_;
+  std::uint64_t seq_ = 0;            // physics-side
+  std::int64_t started_ns_ = 0;
+  std::atomic<bool> stop_{false};
+  std::atomic<std::uint64_t> steps_{0};
+  std::thread thread_;
+};
+
+}  // namespace palpate

@@ -1,0 +1,156 @@
+// recorder.cpp — the recorder's writer thread: drains the ring, formats CSV rows, writes whole rows.
+#include "haptics/recorder.h"
+
+#include <palpate/safety.h>
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <fcntl.h>
+#include <system_error>
+#include <unistd.h>
+
+namespace palpate {
+
+Result<std::unique_ptr<Recorder>> Recorder::open(const std::filesystem::path& csv,
+                                                 std::vector<std::string> columns,
+                                                 std::vector<ColumnFormat> formats,
+                                                 RecorderOptions options) {
+  namespace fs = std::filesystem;
+  formats.resize(columns.size(), ColumnFormat::number);
+  std::unique_ptr<Recorder> r(new Recorder());
+  r->final_ = csv;
+  r->part_ = fs::path(csv.string() + ".part");
+  r->names_ = std::move(columns);
+  r->formats_ = std::move(formats);
+  r->options_ = std::move(options);
+  for (size_t c : r->options_.keep_columns)
+    if (c >= r->names_.size())
+      return Error{"recorder: kept column " + std::to_string(c) + " is past the " +
+                   std::to_string(r->names_.size()) + " columns"};
+  std::error_code ec;
+  if (csv.has_parent_path()) fs::create_directories(csv.parent_path(), ec);
+  if (ec) return Error{csv.parent_path().string() + ": cannot create directory: " + ec.message()};
+  r->fd_ = ::open(r->part_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (r->fd_ < 0) return Error{r->part_.string() + ": cannot open for writing: " + std::strerror(errno)};
+  std::string header;
+  for (size_t c = 0; c < r->names_.size(); ++c) header += (c ? "," : "") + r->names_[c];
+  header += '\n';
+  if (!r->write_out(header)) return Error{r->part_.string() + ": write failed (disk full?)"};
+  r->rows_ = std::make_unique<SpscRing<double>>(r->options_.capacity_rows, r->names_.size());
+  r->event_ring_ = std::make_unique<SpscRing<RecorderEvent>>(1024, 1);
+  r->kept_.resize(r->options_.keep_columns.size());
+  r->writer_ = std::thread([p = r.get()] { p->writer_main(); });
+  return r;
+}
+
+Recorder::~Recorder() {
+  if (!closed_) (void)close();
+}
+
+bool Recorder::push(std::span<const double> row) noexcept {
+  if (rows_->try_push(row)) return true;
+  dropped_.store(dropped_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  return false;
+}
+
+void Recorder::push_wait(std::span<const double> row) noexcept {
+  while (!rows_->try_push(row)) std::this_thread::sleep_for(std::chrono::microseconds(200));
+}
+
+bool Recorder::push_event(const RecorderEvent& e) noexcept {
+  if (event_ring_->try_push({&e, 1})) return true;
+  ++events_dropped_;
+  return false;
+}
+
+bool Recorder::write_out(std::string& buf) {
+  size_t off = 0;
+  while (off < buf.size()) {
+    const ssize_t n = ::write(fd_, buf.data() + off, buf.size() - off);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      write_failed_.store(true);
+      buf.clear();
+      return false;
+    }
+    off += static_cast<size_t>(n);
+  }
+  buf.clear();
+  return true;
+}
+
+// Format every row waiting in the ring into `buf`; true when anything was drained.
+bool Recorder::drain(std::string& buf) {
+  bool any = false;
+  char names[128];
+  // At most a ring's worth per call, so a producer that never pauses still sees periodic flushes.
+  size_t budget = rows_->capacity();
+  for (std::span<const double> row = rows_->front(); !row.empty() && budget > 0;
+       row = rows_->front(), --budget) {
+    for (size_t c = 0; c < row.size(); ++c) {
+      if (c) buf += ',';
+      switch (formats_[c]) {
+        case ColumnFormat::integer:
+          fmt::format_to(std::back_inserter(buf), "{}", static_cast<long long>(row[c]));
+          break;
+        case ColumnFormat::safety_events:
+          safety_event_names(static_cast<std::uint32_t>(row[c]), names, sizeof names);
+          buf += names;
+          break;
+        default: fmt::format_to(std::back_inserter(buf), "{:.9g}", row[c]); break;
+      }
+    }
+    buf += '\n';
+    for (size_t i = 0; i < kept_.size(); ++i) kept_[i].push_back(row[options_.keep_columns[i]]);
+    rows_->pop();
+    rows_written_.store(rows_written_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+    any = true;
+  }
+  for (std::span<const RecorderEvent> e = event_ring_->front(); !e.empty(); e = event_ring_->front()) {
+    events_.push_back(e[0]);
+    event_ring_->pop();
+    any = true;
+  }
+  return any;
+}
+
+void Recorder::writer_main() {
+  using Clock = std::chrono::steady_clock;
+  std::string buf;
+  buf.reserve(1 << 20);
+  auto last_flush = Clock::now();
+  const auto period = std::chrono::duration<double>(options_.flush_period);
+  for (;;) {
+    const bool stopping = stop_.load(std::memory_order_acquire);
+    const bool any = drain(buf);
+    // Whole rows only reach the file, so a run killed at any moment leaves complete lines.
+    if (!buf.empty() && (stopping || Clock::now() - last_flush >= period)) {
+      write_out(buf);
+      last_flush = Clock::now();
+    }
+    if (stopping) break;
+    if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+}
+
+Status Recorder::close() {
+  if (closed_) return {};
+  closed_ = true;
+  stop_.store(true, std::memory_order_release);
+  if (writer_.joinable()) writer_.join();
+  const bool synced = ::fsync(fd_) == 0;
+  const bool closed_ok = ::close(fd_) == 0;
+  fd_ = -1;
+  if (write_failed_.load() || !synced || !closed_ok)
+    return Error{part_.string() + ": write failed (disk full?); rows up to the failure are kept there"};
+  if (events_dropped_ > 0) events_.push_back({0, "events_dropped", -1, 0, double(events_dropped_)});
+  std::error_code ec;
+  std::filesystem::rename(part_, final_, ec);
+  if (ec) return Error{final_.string() + ": cannot move the finished file into place: " + ec.message()};
+  return {};
+}
+
+}  // namespace palpate

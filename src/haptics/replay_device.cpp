@@ -1,0 +1,143 @@
+// replay_device.cpp — the replay backend: a run's CSV read once, then played back tick for tick.
+#include <palpate/device.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <string_view>
+
+namespace palpate {
+
+namespace {
+
+std::vector<std::string_view> split_commas(std::string_view line) {
+  std::vector<std::string_view> out;
+  size_t start = 0;
+  for (;;) {
+    const size_t comma = line.find(',', start);
+    out.push_back(line.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start));
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  return out;
+}
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+}  // namespace
+
+Result<std::vector<RecordedSample>> load_recording_csv(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) return Error{file.string() + ": cannot open recording"};
+  std::string line;
+  int lineno = 0;
+  // Header: find the columns by name.
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (!trim(line).empty() && line[0] != '#') break;
+  }
+  if (trim(line).empty() || line[0] == '#')
+    return Error{file.string() + ": recording is empty (expected a header t,tool_x,tool_y,tool_z,...)"};
+  std::vector<std::string> header;  // owned: `line` is reused for the rows
+  for (std::string_view h : split_commas(line)) header.emplace_back(h);
+  auto find = [&](std::string_view name) -> int {
+    for (size_t i = 0; i < header.size(); ++i)
+      if (trim(header[i]) == name) return int(i);
+    return -1;
+  };
+  static constexpr std::array<const char*, 4> kNeeded = {"t", "tool_x", "tool_y", "tool_z"};
+  std::array<int, 4> need{};
+  for (size_t i = 0; i < kNeeded.size(); ++i) {
+    need[i] = find(kNeeded[i]);
+    if (need[i] < 0)
+      return Error{file.string() + ":" + std::to_string(lineno) + ": no column '" + kNeeded[i] +
+                   "' in the header (a recording needs t, tool_x, tool_y, tool_z: a run's run.csv)"};
+  }
+  const std::array<int, 4> quat = {find("tool_qw"), find("tool_qx"), find("tool_qy"), find("tool_qz")};
+  const bool has_quat = std::all_of(quat.begin(), quat.end(), [](int c) { return c >= 0; });
+  const int buttons = find("buttons");
+
+  std::vector<RecordedSample> samples;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (trim(line).empty() || line[0] == '#') continue;
+    const auto fields = split_commas(line);
+    auto number = [&](int col, double& out) -> Status {
+      if (col >= int(fields.size()))
+        return Error{file.string() + ":" + std::to_string(lineno) + ": row has " +
+                     std::to_string(fields.size()) + " fields, column '" +
+                     std::string(trim(header[size_t(col)])) + "' is number " + std::to_string(col + 1)};
+      const std::string text(trim(fields[size_t(col)]));
+      char* end = nullptr;
+      out = std::strtod(text.c_str(), &end);
+      if (text.empty() || end != text.c_str() + text.size())
+        return Error{file.string() + ":" + std::to_string(lineno) + ": column '" +
+                     std::string(trim(header[size_t(col)])) + "': expected a number, got '" + text + "'"};
+      if (!std::isfinite(out))
+        return Error{file.string() + ":" + std::to_string(lineno) + ": column '" +
+                     std::string(trim(header[size_t(col)])) + "' is NaN or infinite"};
+      return {};
+    };
+    RecordedSample s;
+    double v[4];
+    for (size_t i = 0; i < 4; ++i)
+      if (Status st = number(need[i], v[i]); !st) return st.error();
+    s.t = v[0];
+    s.position = Vec3(v[1], v[2], v[3]);
+    if (has_quat) {
+      double q[4];
+      for (size_t i = 0; i < 4; ++i)
+        if (Status st = number(quat[i], q[i]); !st) return st.error();
+      s.orientation = Quat(q[0], q[1], q[2], q[3]);
+      if (s.orientation.norm() < 1e-9)
+        return Error{file.string() + ":" + std::to_string(lineno) + ": orientation quaternion is zero"};
+      s.orientation.normalize();
+    }
+    if (buttons >= 0) {
+      double b = 0;
+      if (Status st = number(buttons, b); !st) return st.error();
+      s.buttons = static_cast<std::uint32_t>(std::max(0.0, b));
+    }
+    if (!samples.empty() && s.t < samples.back().t)
+      return Error{file.string() + ":" + std::to_string(lineno) + ": time " + std::to_string(s.t) +
+                   " s goes back (previous " + std::to_string(samples.back().t) + " s)"};
+    samples.push_back(s);
+  }
+  if (samples.empty()) return Error{file.string() + ": recording has a header but no rows"};
+  return samples;
+}
+
+ReplayDevice::ReplayDevice(std::vector<RecordedSample> samples, DeviceLimits limits)
+    : samples_(std::move(samples)), limits_(limits) {
+  if (samples_.empty()) samples_.push_back(RecordedSample{});
+}
+
+bool ReplayDevice::read(double t, DeviceState& out) noexcept {
+  // The last row at or before t; rows are ticks, so a half-tick tolerance absorbs the rounding
+  // of the times printed in the CSV.
+  const double tol = samples_.size() > 1 ? 0.5 * (samples_[1].t - samples_[0].t) : 0.0;
+  if (row_ >= samples_.size() || samples_[row_].t > t + tol) row_ = 0;
+  while (row_ + 1 < samples_.size() && samples_[row_ + 1].t <= t + tol) ++row_;
+  const RecordedSample& s = samples_[row_];
+  out.time = t;
+  out.position = s.position;
+  out.orientation = s.orientation;
+  out.buttons = s.buttons;
+  out.velocity.setZero();
+  if (row_ > 0 && samples_[row_].t > t - tol) {  // moving: not held past the end
+    const RecordedSample& p = samples_[row_ - 1];
+    const double span = s.t - p.t;
+    if (span > 0) out.velocity = (s.position - p.position) / span;
+  }
+  return true;
+}
+
+void ReplayDevice::write(const Vec3& force, const Vec3&) noexcept { last_force_ = force; }
+
+}  // namespace palpate

@@ -1,0 +1,80 @@
+// snapshot_tissue.cpp — SnapshotTissue: forwarding step() and the allocation-free hand-over of
+// drawn positions from the stepping thread to the render thread.
+#include <palpate/snapshot_tissue.h>
+
+#include <algorithm>
+
+namespace palpate {
+
+namespace {
+
+// Capacity for `size` elements plus headroom, so a later copy of about the same size never allocates.
+size_t with_headroom(size_t size) { return 2 * size + 16; }
+
+template <class T>
+void reserve_headroom(std::vector<T>& v, size_t size) {
+  v.reserve(with_headroom(size));
+}
+
+}  // namespace
+
+SnapshotTissue::SnapshotTissue(std::unique_ptr<Tissue> inner) : inner_(std::move(inner)) {
+  TissueSnapshot first;
+  inner_->snapshot(first);
+  for (TissueSnapshot& s : slots_) {
+    reserve_headroom(s.points, first.points.size());
+    reserve_headroom(s.rows_cols, first.rows_cols.size());
+    reserve_headroom(s.triangles, first.triangles.size());
+    reserve_headroom(s.links, first.links.size());
+    s.points = first.points;
+    s.rows_cols = first.rows_cols;
+    s.triangles = first.triangles;
+    s.links = first.links;
+  }
+}
+
+// Out of line: inlined where a unique_ptr<Tissue> dies, GCC 12 warns falsely (-Wfree-nonheap-object).
+SnapshotTissue::~SnapshotTissue() = default;
+
+Vec3 SnapshotTissue::step(const ToolState& tool, double dt) noexcept {
+  const Vec3 force = inner_->step(tool, dt);
+  if (wanted_.load(std::memory_order_relaxed) && wanted_.exchange(false, std::memory_order_acquire)) {
+    copy_into_back({tool.time, tool.tip, force, true});
+  }
+  return force;
+}
+
+void SnapshotTissue::copy_into_back(const SnapshotStamp& stamp) noexcept {
+  TissueSnapshot& s = slots_[back_];
+  const size_t caps[4] = {s.points.capacity(), s.rows_cols.capacity(), s.triangles.capacity(),
+                          s.links.capacity()};
+  try {
+    inner_->snapshot(s);
+  } catch (...) {
+    // Only an allocation failure can throw here (the slot's capacity was exceeded and memory ran
+    // out): keep the previous copy and count it; the haptic thread must go on.
+    growths_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  if (s.points.capacity() != caps[0] || s.rows_cols.capacity() != caps[1] ||
+      s.triangles.capacity() != caps[2] || s.links.capacity() != caps[3]) {
+    growths_.fetch_add(1, std::memory_order_relaxed);
+  }
+  stamps_[back_] = stamp;
+  back_ = middle_.exchange(static_cast<std::uint8_t>(back_ | kFresh), std::memory_order_acq_rel) & kIndex;
+  published_.fetch_add(1, std::memory_order_relaxed);
+}
+
+const TissueSnapshot& SnapshotTissue::latest(bool* fresh) noexcept {
+  const bool is_fresh = (middle_.load(std::memory_order_relaxed) & kFresh) != 0;
+  if (is_fresh) front_ = middle_.exchange(front_, std::memory_order_acq_rel) & kIndex;
+  if (fresh) *fresh = is_fresh;
+  return slots_[front_];
+}
+
+void SnapshotTissue::publish_now() {
+  copy_into_back({});
+  wanted_.store(true, std::memory_order_release);
+}
+
+}  // namespace palpate

@@ -1,0 +1,420 @@
+// step.cpp — the charged-particle step kernel pipeline: HIP update, repulsion, propagation
+// (separation rule), relaxation (elasticity), force (with puncture and track friction).
+// Equations and reasoning: docs/models/charged-particles.md.
+#include <palpate/charged.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace palpate {
+
+namespace {
+
+constexpr std::uint8_t kActive = 1, kQueued = 2, kReversed = 4;
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kRepulsionFloor = 0.1;   // r_floor / R: the repulsion saturates below it
+constexpr double kAttractionCore = 0.5;   // r_core / R: the attraction is linear below it
+constexpr double kSeparationSlack = 1e-5; // relative: float rounding allowed on max_separation
+constexpr double kPinnedFraction = 1 - 1e-4;  // |p - o| ≥ this · D counts as at maximum displacement
+
+// Calls f(i) for every particle whose origin may lie within `rho` of h (a superset; callers test
+// exact distances). Generated lattices invert their (u, v) map, a mesh patch walks its cell grid;
+// either way the cost follows the ball's size, never the patch's.
+template <class F>
+void for_each_candidate(const ChargedModel& m, const Vec3& h, double rho, F&& f) noexcept {
+  if (m.layout == ChargedLayout::mesh) {
+    std::array<std::int64_t, 3> lo{}, hi{};
+    for (int k = 0; k < 3; ++k) {
+      const auto kk = static_cast<size_t>(k);
+      const double a = std::floor((h[k] - rho - m.grid_min[k]) / m.cell_size);
+      const double b = std::floor((h[k] + rho - m.grid_min[k]) / m.cell_size);
+      if (b < 0 || a > static_cast<double>(m.grid_dims[kk] - 1)) return;
+      lo[kk] = std::max<std::int64_t>(0, static_cast<std::int64_t>(a));
+      hi[kk] = std::min<std::int64_t>(m.grid_dims[kk] - 1, static_cast<std::int64_t>(b));
+    }
+    for (std::int64_t iz = lo[2]; iz <= hi[2]; ++iz)
+      for (std::int64_t iy = lo[1]; iy <= hi[1]; ++iy) {
+        const std::int64_t row = (iz * m.grid_dims[1] + iy) * m.grid_dims[0];
+        const std::int64_t k0 = row + lo[0], k1 = row + hi[0];
+        auto it = std::lower_bound(m.cell_key.begin(), m.cell_key.end(), k0);
+        for (; it != m.cell_key.end() && *it <= k1; ++it) {
+          const size_t cell = static_cast<size_t>(it - m.cell_key.begin());
+          for (std::int32_t i = m.cell_start[cell]; i < m.cell_start[cell + 1]; ++i) f(static_cast<int>(i));
+        }
+      }
+    return;
+  }
+  // Lattice: the HIP's (u, v) and a window of half-widths (du, dv) that holds every origin within
+  // rho (chord ≤ arc on bent patches; bounds derived in docs/models/charged-particles.md).
+  double u = 0, v = 0, du = rho, dv = rho;
+  bool full_u = false, full_v = false;
+  const double a = m.radius;
+  const Vec3 axis_point = m.center - a * m.normal;
+  if (m.layout == ChargedLayout::flat) {
+    const Vec3 d = h - m.center;
+    const double w = d.dot(m.normal);
+    if (std::abs(w) >= rho) return;
+    u = d.dot(m.tangent_u), v = d.dot(m.tangent_v);
+    du = dv = std::sqrt(rho * rho - w * w);
+  } else if (m.layout == ChargedLayout::cylinder) {
+    const Vec3 w = h - axis_point;
+    const double x = w.dot(m.tangent_u), z = w.dot(m.normal), rh = std::hypot(x, z);
+    if (std::abs(rh - a) >= rho) return;
+    v = w.dot(m.tangent_v);
+    const double arg = rh > 0 ? rho / (2 * std::sqrt(rh * a)) : 2.0;
+    if (arg >= 1) full_u = true;
+    else u = a * std::atan2(x, z), du = a * 2 * std::asin(arg);
+  } else {  // sphere
+    const Vec3 w = h - axis_point;
+    const double rh = w.norm();
+    if (std::abs(rh - a) >= rho) return;
+    const double arg = rh > 0 ? rho / (2 * std::sqrt(rh * a)) : 2.0;
+    if (arg >= 1) {
+      full_u = full_v = true;
+    } else {
+      const double gamma = 2 * std::asin(arg);  // largest angle between directions
+      const double theta = std::asin(std::clamp(w.dot(m.tangent_v) / rh, -1.0, 1.0));
+      v = a * theta, dv = a * gamma;
+      if (std::abs(theta) + gamma >= kPi / 2) full_u = true;
+      else u = a * std::atan2(w.dot(m.tangent_u), w.dot(m.normal)),
+           du = a * std::asin(std::min(1.0, std::sin(gamma) / std::cos(theta)));
+    }
+  }
+  int r0 = 0, r1 = m.rows - 1;
+  if (!full_v) {
+    r0 = std::max(0, static_cast<int>(std::floor((v - dv + m.v_mid) / m.row_pitch)));
+    r1 = std::min(m.rows - 1, static_cast<int>(std::ceil((v + dv + m.v_mid) / m.row_pitch)));
+  }
+  // Up to two u ranges: a bent patch's window may wrap across ±π·radius.
+  double ranges[2][2] = {{u - du, u + du}, {0, -1}};
+  int nranges = 1;
+  if (!full_u && m.layout != ChargedLayout::flat) {
+    const double half = kPi * a;
+    if (u + du > half) ranges[1][0] = u - du - 2 * half, ranges[1][1] = u + du - 2 * half, nranges = 2;
+    else if (u - du < -half) ranges[1][0] = u - du + 2 * half, ranges[1][1] = u + du + 2 * half, nranges = 2;
+  }
+  for (int r = r0; r <= r1; ++r) {
+    const double shift = 0.5 * (r & 1);
+    int last = -1;  // the two ranges never overlap, but stay safe against double visits
+    for (int k = 0; k < nranges; ++k) {
+      int c0 = 0, c1 = m.cols - 1;
+      if (!full_u) {
+        c0 = std::max(0, static_cast<int>(std::floor((ranges[k][0] + m.u_mid) / m.spacing - shift)));
+        c1 = std::min(m.cols - 1, static_cast<int>(std::ceil((ranges[k][1] + m.u_mid) / m.spacing - shift)));
+      }
+      c0 = std::max(c0, last + 1);
+      for (int c = c0; c <= c1; ++c) f(r * m.cols + c);
+      last = std::max(last, c1);
+      if (full_u) break;
+    }
+  }
+}
+
+void push_event(ChargedState& s, const TissueEvent& e) noexcept {
+  if (s.event_count == s.events.size()) {  // full: drop the oldest
+    s.event_head = (s.event_head + 1) % s.events.size();
+    --s.event_count;
+    ++s.events_dropped;
+  }
+  s.events[(s.event_head + s.event_count) % s.events.size()] = e;
+  ++s.event_count;
+}
+
+// Distance from point c to the segment [a, b], and the segment's point nearest to c.
+double segment_distance(const Vec3& a, const Vec3& b, const Vec3& c, Vec3& nearest) noexcept {
+  const Vec3 ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((c - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  nearest = a + t * ab;
+  return (c - nearest).norm();
+}
+
+void set_position(ChargedState& s, int i, const Vec3& p) noexcept {
+  const auto k = static_cast<size_t>(i);
+  s.x[k] = static_cast<float>(p.x()), s.y[k] = static_cast<float>(p.y()), s.z[k] = static_cast<float>(p.z());
+}
+
+// A particle left its origin (or moved again): remember it in the active set and queue it for
+// the separation rule. Both arrays have capacity n and each particle is in each at most once.
+void touch(ChargedState& s, int i, size_t& q_tail) noexcept {
+  auto& f = s.flags[static_cast<size_t>(i)];
+  if (!(f & kActive)) {
+    f |= kActive;
+    s.active[s.active_count++] = i;
+  }
+  if (!(f & kQueued)) {
+    f |= kQueued;
+    s.queue[q_tail % s.queue.size()] = i;
+    ++q_tail;
+  }
+}
+
+// Stage 1 — HIP update: which holes the tool passes through now; exits, and holes that close.
+bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, const Vec3& tail,
+                   int tissue) noexcept {
+  const double R = m.material.sphere_of_influence, rho = R + m.material.max_displacement;
+  bool any = false;
+  for (ChargedHole& hole : s.holes) {
+    if (!hole.open) continue;
+    Vec3 q;
+    // Hysteresis: a tool leaves a track only once it is clear of the patch's reach (R + D), so
+    // a withdrawing needle is not re-indented from the inner side by the still-displaced
+    // particles around the hole (that gave force spikes of ~3 N on the way out).
+    const double reach = hole.in_track ? rho : R;
+    const bool now = segment_distance(tail, tip, hole.center, q) < reach;
+    if (hole.in_track && !now) {
+      push_event(s, TissueEvent{s.time, "exit", tissue, 0.0, 0.0});
+      if (m.material.hole_closes) {  // the particles' charges return to normal: the hole heals
+        for_each_candidate(m, hole.center, 2 * rho, [&](int i) {
+          if ((m.origin(static_cast<size_t>(i)) - hole.center).norm() < 2 * rho)
+            s.flags[static_cast<size_t>(i)] &= static_cast<std::uint8_t>(~kReversed);
+        });
+        hole.open = false;
+      }
+    }
+    hole.in_track = now && hole.open;
+    any = any || hole.in_track;
+  }
+  return any;
+}
+
+// Stage 2 — repulsion: a particle inside the HIP's sphere of influence is pushed inward along its
+// own surface normal out to the sphere's surface (where the repulsion vanishes), but never beyond
+// max_displacement from its origin. Pushing along the normal (not radially, and always inward:
+// the tool comes from the outer side) keeps particles from sliding around or over the HIP, so a
+// tool cannot slip through or under the patch without puncturing it.
+void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, size_t& q_tail) noexcept {
+  const double R = m.material.sphere_of_influence, D = m.material.max_displacement;
+  for_each_candidate(m, h, R + D, [&](int i) {
+    const auto k = static_cast<size_t>(i);
+    ++s.stats.candidates;
+    if (s.flags[k] & kReversed) return;
+    const Vec3 p = s.position(k);
+    const Vec3 d = p - h;
+    const double r2 = d.squaredNorm();
+    if (r2 >= R * R) return;
+    // |d - t n|² = R²  →  t = d·n + √((d·n)² − |d|² + R²) > 0, the exit on the inner side.
+    const Vec3 n = m.particle_normal(k).normalized();
+    const double dn = d.dot(n), t = dn + std::sqrt(dn * dn - r2 + R * R);
+    const Vec3 o = m.origin(k);
+    Vec3 target = p - t * n;
+    const Vec3 e = target - o;
+    const double el = e.norm();
+    if (el > D) target = o + e * (D / el);
+    if (target != p) {
+      set_position(s, i, target);
+      touch(s, i, q_tail);
+    }
+  });
+}
+
+// Stage 3 — propagation (ChainMail, Gibson 1997): a moved particle drags each neighbour that now
+// violates max_separation just far enough to satisfy it, keeping the neighbour within its own
+// max_displacement; the neighbour is queued in turn. Only disturbed particles are visited.
+void propagation(const ChargedModel& m, ChargedState& s, size_t q_head, size_t q_tail) noexcept {
+  const double S = m.material.max_separation, D = m.material.max_displacement;
+  const double S_check2 = S * S * (1 + kSeparationSlack) * (1 + kSeparationSlack);
+  const size_t bound = 16 * m.size() + 1024;  // safety bound; never reached by a consistent patch
+  size_t pops = 0;
+  std::array<int, 6> nb{};
+  while (q_head != q_tail) {
+    const int i = s.queue[q_head % s.queue.size()];
+    ++q_head;
+    s.flags[static_cast<size_t>(i)] &= static_cast<std::uint8_t>(~kQueued);
+    if (++pops > bound) {  // drop the rest of the queue, count it, keep the step bounded
+      while (q_head != q_tail) {
+        s.flags[static_cast<size_t>(s.queue[q_head % s.queue.size()])] &= static_cast<std::uint8_t>(~kQueued);
+        ++q_head;
+      }
+      ++s.stats.propagation_overflows;
+      break;
+    }
+    const Vec3 pi = s.position(static_cast<size_t>(i));
+    const int count = m.neighbours_of(i, nb);
+    for (int a = 0; a < count; ++a) {
+      const int j = nb[static_cast<size_t>(a)];
+      const auto kj = static_cast<size_t>(j);
+      ++s.stats.propagation_visits;
+      const Vec3 pj = s.position(kj);
+      const Vec3 d = pj - pi;
+      const double L2 = d.squaredNorm();
+      if (L2 <= S_check2) continue;
+      const Vec3 oj = m.origin(kj);
+      Vec3 target = pi + d * (S / std::sqrt(L2));
+      const Vec3 e = target - oj;
+      const double el = e.norm();
+      if (el > D) target = oj + e * (D / el);
+      if ((target - pi).squaredNorm() > S_check2) {
+        // Both balls (|p - p_i| ≤ S, |p - o_j| ≤ D) meet on the segment o_j → p_i, because
+        // |p_i - o_j| ≤ D + rest spacing < D + S: take that point.
+        const Vec3 g = pi - oj;
+        const double gl = g.norm();
+        target = oj + g * std::max(0.0, 1 - S / gl);
+      }
+      set_position(s, j, target);
+      ++s.stats.propagation_moves;
+      touch(s, j, q_tail);
+    }
+  }
+}
+
+// Stage 4 — relaxation: every displaced particle returns toward its origin,
+// p ← o + (p − o)·exp(−λ·dt), the exact solution of dp/dt = −λ (p − o) over the tick. The same
+// factor for all keeps every neighbour pair within max_separation (a convex combination).
+void relaxation(const ChargedModel& m, ChargedState& s, double dt) noexcept {
+  const double alpha = std::exp(-m.material.elasticity * dt);
+  const double settle2 = (1e-4 * m.spacing) * (1e-4 * m.spacing);
+  double max_d2 = 0;
+  for (size_t a = 0; a < s.active_count;) {
+    const int i = s.active[a];
+    const auto k = static_cast<size_t>(i);
+    const Vec3 o = m.origin(k);
+    const Vec3 before = s.position(k);
+    const Vec3 d = (before - o) * alpha;
+    if (alpha != 1.0) set_position(s, i, o + d);
+    // Home when within 1e-4 spacing, or when float resolution stops the approach (no progress).
+    if (d.squaredNorm() <= settle2 || (alpha != 1.0 && s.position(k) == before)) {
+      set_position(s, i, o);  // leave the active set: swap-remove (deterministic)
+      s.flags[k] &= static_cast<std::uint8_t>(~kActive);
+      s.active[a] = s.active[--s.active_count];
+      continue;
+    }
+    max_d2 = std::max(max_d2, (s.position(k) - o).squaredNorm());
+    ++a;
+  }
+  s.stats.max_displacement = std::sqrt(max_d2);
+}
+
+}  // namespace
+
+double charged_repulsion(double kqq, double r, double R) noexcept {
+  if (!(r < R)) return 0.0;
+  const double rc = std::max(r, kRepulsionFloor * R);
+  return kqq * (1 / (rc * rc) - 1 / (R * R));
+}
+
+double charged_attraction(double kqq, double r, double R) noexcept {
+  if (!(r < R)) return 0.0;
+  const double core = kAttractionCore * R;
+  if (r >= core) return kqq * (1 / (r * r) - 1 / (R * R));
+  return kqq * (1 / (core * core) - 1 / (R * R)) * (r / core);
+}
+
+Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double dt, int tissue) noexcept {
+  s.stats.contacts = s.stats.pinned = 0;
+  s.stats.propagation_visits = s.stats.propagation_moves = s.stats.candidates = 0;
+  const ChargedMaterialDef& mat = m.material;
+  const double R = mat.sphere_of_influence, D = mat.max_displacement;
+  if (!hip.position.allFinite() || !hip.axis.allFinite() || !hip.velocity.allFinite() ||
+      !std::isfinite(hip.shaft_length) || !std::isfinite(dt) || dt < 0) {
+    reset(m, s);
+    ++s.stats.numeric_resets;
+    push_event(s, TissueEvent{s.time, "reset", tissue, 0.0, 0.0});
+    return Vec3::Zero();
+  }
+  s.time += dt;
+  const Vec3 h = hip.position;
+  const Vec3 axis = hip.axis.norm() > 1e-12 ? Vec3(hip.axis.normalized()) : Vec3(0, -1, 0);
+  const Vec3 tail = h - axis * std::max(0.0, hip.shaft_length);
+
+  // 1. HIP update.
+  const bool in_track = update_tracks(m, s, h, tail, tissue);
+  // 2. Repulsion (a tool inside a hole's track passes through: the patch does not push it).
+  size_t q_tail = 0;
+  if (!in_track) repulsion(m, s, h, q_tail);
+  // 3. Propagation.
+  propagation(m, s, 0, q_tail);
+  // 4. Relaxation.
+  relaxation(m, s, dt);
+
+  // 5. Force on the HIP: repulsion of the particles in its sphere of influence, attraction of
+  // charge-reversed (punctured) particles near the tool, friction along every track it is in.
+  Vec3 force = Vec3::Zero();
+  // Pushed to max_displacement in stage 2, then relaxed once by exp(-λ dt) in stage 4.
+  const double pinned_at = kPinnedFraction * D * std::exp(-mat.elasticity * dt);
+  int nearest_pinned = -1;
+  double nearest_r = R;
+  auto attract = [&](int i, const Vec3& from) {
+    const Vec3 d = s.position(static_cast<size_t>(i)) - from;
+    const double r = d.norm();
+    if (r < R && r > 0) force += charged_attraction(m.coulomb_kqq, r, R) * (d / r);
+  };
+  if (!in_track) {
+    for_each_candidate(m, h, R + D, [&](int i) {
+      const auto k = static_cast<size_t>(i);
+      if (s.flags[k] & kReversed) return attract(i, h);
+      const Vec3 d = s.position(k) - h;
+      const double r = d.norm();
+      if (!(r < R)) return;
+      ++s.stats.contacts;
+      if ((s.position(k) - m.origin(k)).norm() >= pinned_at) {
+        ++s.stats.pinned;
+        if (r < nearest_r) nearest_r = r, nearest_pinned = i;
+      }
+      if (r > 0) force -= charged_repulsion(m.coulomb_kqq, r, R) * (d / r);
+    });
+  } else {
+    for (const ChargedHole& hole : s.holes) {
+      if (!hole.in_track) continue;
+      Vec3 q;
+      segment_distance(tail, h, hole.center, q);  // shaft point nearest the hole's centre
+      const Vec3 before = force;
+      for_each_candidate(m, q, R + D, [&](int i) {
+        if (!(s.flags[static_cast<size_t>(i)] & kReversed)) return;
+        Vec3 qi;  // the shaft point nearest this particle
+        segment_distance(tail, h, s.position(static_cast<size_t>(i)), qi);
+        attract(i, qi);
+      });
+      // The reversed charges pull the tool along its axis (the snap into the hole). Sideways,
+      // the sum over an irregular ring of reversed particles does not cancel and would push a
+      // needle held on its track with a constant force (1–2 N in the CVC scene): instead the
+      // track centres the shaft, a spring from the shaft to the track's line of stiffness
+      // puncture_force / R (so an offset of R costs the puncture force), zero on the line.
+      const Vec3 pulled = force - before;
+      force = before + pulled.dot(axis) * axis;
+      Vec3 off = q - hole.center;
+      off -= off.dot(hole.axis) * hole.axis;
+      const double off_norm = off.norm();
+      const double k_track = mat.puncture_force / R;
+      if (off_norm > 0) force -= k_track * std::min(off_norm, R) * (off / off_norm);
+      // Friction of the track on the tool (Okamura et al. 2004's shaft friction, Karnopp-like
+      // but smoothed): opposes the axial velocity in both directions.
+      const double v_axial = hip.velocity.dot(axis);
+      force -= mat.track_friction * std::tanh(v_axial / mat.friction_velocity) * axis;
+    }
+  }
+  if (!force.allFinite()) {
+    reset(m, s);
+    ++s.stats.numeric_resets;
+    push_event(s, TissueEvent{s.time, "reset", tissue, 0.0, 0.0});
+    return Vec3::Zero();
+  }
+  const double magnitude = force.norm();
+  s.contact_peak = s.stats.contacts > 0 ? std::max(s.contact_peak, magnitude) : 0.0;
+
+  // Puncture: a particle at maximum displacement and a force past the threshold. The particles
+  // inside the sphere of influence reverse their charge; the tool is now in the hole's track.
+  if (!in_track && nearest_pinned >= 0 && magnitude >= mat.puncture_force) {
+    ChargedHole& hole = s.holes[static_cast<size_t>(s.next_hole)];
+    s.next_hole = (s.next_hole + 1) % kChargedMaxHoles;
+    hole.center = h, hole.axis = axis, hole.in_track = true, hole.open = true;
+    for_each_candidate(m, h, R + D, [&](int i) {
+      if ((s.position(static_cast<size_t>(i)) - h).norm() < R) s.flags[static_cast<size_t>(i)] |= kReversed;
+    });
+    const auto k = static_cast<size_t>(nearest_pinned);
+    const double depth = (m.origin(k) - h).dot(m.particle_normal(k).normalized());
+    push_event(s, TissueEvent{s.time, "puncture", tissue, depth, s.contact_peak});
+  }
+  s.force = force;
+  return force;
+}
+
+size_t drain_events(ChargedState& s, std::span<TissueEvent> out) noexcept {
+  const size_t n = std::min(out.size(), s.event_count);
+  for (size_t k = 0; k < n; ++k) out[k] = s.events[(s.event_head + k) % s.events.size()];
+  s.event_head = (s.event_head + n) % s.events.size();
+  s.event_count -= n;
+  return n;
+}
+
+}  // namespace palpate

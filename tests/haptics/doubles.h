@@ -1,0 +1,92 @@
+// doubles.h — test doubles for the haptics tests: a linear floor tissue (that can stall or offer
+// its stiffness), and adversarial devices (teleports, NaN poses, 500 Hz oscillation).
+#pragma once
+
+#include <palpate/device.h>
+#include <palpate/haptics.h>
+#include <palpate/tissue.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace palpate::test {
+
+// A floor at y = 0 pushing back with stiffness·penetration of a sphere tool (N/m · m).
+// `stall`: while true, step() blocks (a physics thread that stalls). `step_sleep`: seconds each
+// step sleeps on every `sleep_every`-th step (an overrunning step).
+class LinearFloor : public Tissue {
+ public:
+  explicit LinearFloor(double stiffness, std::string name = "floor") : k_(stiffness), name_(std::move(name)) {}
+  const std::string& name() const override { return name_; }
+  Vec3 step(const ToolState& tool, double) noexcept override {
+    while (stall.load(std::memory_order_acquire)) std::this_thread::sleep_for(std::chrono::microseconds(200));
+    ++steps_;
+    if (sleep_every > 0 && steps_ % sleep_every == 0)
+      std::this_thread::sleep_for(std::chrono::duration<double>(step_sleep));
+    const double pen = std::max(0.0, tool.radius - tool.tip.y());
+    force_ = k_ * pen;
+    return Vec3(0, force_, 0);
+  }
+  std::span<const std::string> figure_names() const override { return names_; }
+  void figures(std::span<double> out) const noexcept override { out[0] = force_; }
+  size_t drain_events(std::span<TissueEvent>) noexcept override { return 0; }
+  void snapshot(TissueSnapshot&) const override {}
+  void reset() noexcept override { force_ = 0; }
+
+  std::atomic<bool> stall{false};
+  long sleep_every = 0;
+  double step_sleep = 0;
+
+ protected:
+  double k_;
+  double force_ = 0;
+  long steps_ = 0;
+  std::string name_;
+  std::vector<std::string> names_ = {"force_N"};
+};
+
+// The same floor, offering its exact contact stiffness ∂F/∂x.
+class FloorWithJacobian final : public LinearFloor, public ContactJacobianSource {
+ public:
+  using LinearFloor::LinearFloor;
+  bool contact_jacobian(Eigen::Matrix3d& j) const noexcept override {
+    j.setZero();
+    if (force_ > 0) j(1, 1) = -k_;
+    return true;
+  }
+};
+
+// A device whose position per tick comes from a function of the tick index; every force written
+// is kept (sized up front) so a test can check what the hand would have felt.
+class FunctionDevice final : public Device {
+ public:
+  using PoseFn = Vec3 (*)(long tick);
+  FunctionDevice(PoseFn fn, double dt, size_t max_ticks, DeviceLimits limits = {})
+      : fn_(fn), dt_(dt), limits_(limits) {
+    written.reserve(max_ticks + 16);
+  }
+  const DeviceLimits& limits() const override { return limits_; }
+  bool read(double t, DeviceState& out) noexcept override {
+    const long tick = std::lround(t / dt_) - 1;
+    out.time = t;
+    out.position = fn_(tick < 0 ? 0 : tick);
+    out.velocity.setZero();
+    return true;
+  }
+  void write(const Vec3& force, const Vec3&) noexcept override {
+    if (written.size() < written.capacity()) written.push_back(force);
+  }
+  std::vector<Vec3> written;
+
+ private:
+  PoseFn fn_;
+  double dt_;
+  DeviceLimits limits_;
+};
+
+}  // namespace palpate::test

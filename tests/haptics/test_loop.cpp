@@ -1,0 +1,249 @@
+// test_loop.cpp — the haptic loop: adversarial devices stay within the safety rules, realtime runs
+// record every tick and report timing, the overrun watchdog zeroes force and the loop recovers.
+#include <palpate/haptics.h>
+#include <palpate/run.h>
+
+#include "haptics/doubles.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fs = std::filesystem;
+using palpate::Vec3;
+using namespace palpate::test;
+
+namespace {
+
+constexpr double kDt = 0.001;
+constexpr double kMaxForce = 3.3, kMaxStep = 200.0 * kDt;  // N, N per tick (a Touch's defaults)
+
+struct CsvRow {
+  long tick = 0;
+  double t = 0, y = 0;
+  Vec3 force = Vec3::Zero();
+  std::string events;
+};
+
+// Rows of a run.csv (columns as the loop writes them).
+std::vector<CsvRow> read_rows(const fs::path& p) {
+  std::ifstream in(p);
+  std::string line;
+  std::getline(in, line);
+  std::vector<CsvRow> rows;
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+    if (line.back() == ',') f.push_back("");
+    CsvRow r;
+    r.t = std::stod(f.at(0));
+    r.y = std::stod(f.at(2));
+    r.force = Vec3(std::stod(f.at(4)), std::stod(f.at(5)), std::stod(f.at(6)));
+    r.tick = std::stol(f.at(8));
+    r.events = f.at(14);
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+size_t count_event(const std::vector<CsvRow>& rows, const std::string& name) {
+  size_t n = 0;
+  for (const auto& r : rows) n += r.events.find(name) != std::string::npos ? 1 : 0;
+  return n;
+}
+
+// Press 3 mm into the floor, teleport 1 m down, NaN poses, 500 Hz oscillation, then hold.
+Vec3 adversarial_pose(long k) {
+  if (k < 300) return Vec3(0, 0.002 - 0.004 * double(k) / 300.0, 0);
+  if (k < 350) return Vec3(0, -1.0, 0);                                      // teleport
+  if (k < 400) return Vec3(std::numeric_limits<double>::quiet_NaN(), 0, 0);  // NaN pose
+  if (k < 1000) return Vec3(0, (k % 2) ? 0.003 : -0.003, 0);                 // 500 Hz
+  return Vec3(0, -0.002, 0);
+}
+
+palpate::LoopSettings settings(const fs::path& csv, bool realtime) {
+  palpate::LoopSettings s;
+  s.dt = kDt;
+  s.realtime = realtime;
+  s.ramp_in = 0.05;
+  s.csv = csv;
+  s.try_realtime_priority = false;  // a shared test machine: no SCHED_FIFO spinning in tests
+  return s;
+}
+
+}  // namespace
+
+TEST(Loop, AdversarialDeviceStaysWithinSafetyLimits) {
+  const fs::path csv = fs::temp_directory_path() / "palpate_test_loop_adv" / "run.csv";
+  LinearFloor floor(500.0);
+  FunctionDevice dev(&adversarial_pose, kDt, 1300);
+  auto loop = palpate::HapticLoop::create(dev, {{&floor, 0.0}}, settings(csv, false));
+  ASSERT_TRUE(loop.ok()) << loop.error().message;
+  (*loop)->run_headless(1300);
+  ASSERT_TRUE((*loop)->finish_recording());
+  const palpate::LoopStats st = (*loop)->stats();
+
+  // What the hand felt: finite, within the maximum, changing by at most the rate limit.
+  ASSERT_EQ(dev.written.size(), 1300u);
+  Vec3 last = Vec3::Zero();
+  for (size_t k = 0; k < dev.written.size(); ++k) {
+    const Vec3& f = dev.written[k];
+    ASSERT_TRUE(f.allFinite()) << k;
+    ASSERT_LE(f.norm(), kMaxForce + 1e-12) << k;
+    ASSERT_LE((f - last).norm(), kMaxStep + 1e-9) << k;
+    last = f;
+  }
+  EXPECT_EQ(st.safety.device_failed, 50u);  // the 50 NaN ticks, each counted
+  EXPECT_GT(st.safety.clamped, 0u);         // the teleport asked for 500 N
+  EXPECT_GT(st.safety.rate_limited, 0u);    // the oscillation asked for jumps
+  EXPECT_LE(st.max_force, kMaxForce + 1e-12);
+  // The loop recovers on its own: holding 3 mm into 500 N/m gives 1.5 N again.
+  EXPECT_NEAR(dev.written.back().y(), 1.5, 1e-9);
+
+  // The recorder lost no tick, and marked the events it saw.
+  const auto rows = read_rows(csv);
+  ASSERT_EQ(rows.size(), 1300u);
+  for (size_t k = 0; k < rows.size(); ++k) {
+    ASSERT_EQ(rows[k].tick, long(k));
+    EXPECT_NEAR(rows[k].force.y(), dev.written[k].y(), 1e-8);
+  }
+  EXPECT_EQ(count_event(rows, "device_failed"), 50u);
+  EXPECT_EQ(count_event(rows, "clamped"), st.safety.clamped);
+  // During the NaN poses the recorded tool position holds the last good one, never NaN.
+  EXPECT_EQ(rows[360].y, -1.0);
+}
+
+TEST(Loop, RealtimeRecordsEveryTickAndReportsTiming) {
+  const fs::path csv = fs::temp_directory_path() / "palpate_test_loop_rt" / "run.csv";
+  LinearFloor floor(500.0);
+  palpate::VirtualDevice dev;
+  auto s = settings(csv, true);
+  s.max_ticks = 800;
+  auto loop = palpate::HapticLoop::create(dev, {{&floor, 0.0}}, s);
+  ASSERT_TRUE(loop.ok()) << loop.error().message;
+  ASSERT_TRUE((*loop)->start());
+  // Another thread moves the device and reads the live statistics while the loop runs.
+  std::uint64_t seen = 0;
+  for (int i = 0; (*loop)->stats().running; ++i) {
+    palpate::DeviceState p;
+    p.position = Vec3(0, 0.002 - 0.00001 * (i % 500), 0);
+    dev.set_pose(p);
+    const palpate::LoopStats live = (*loop)->stats();
+    EXPECT_GE(live.ticks, seen);
+    seen = live.ticks;
+    EXPECT_LE(dev.force().norm(), kMaxForce + 1e-12);
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  (*loop)->wait();
+  ASSERT_TRUE((*loop)->finish_recording());
+  const palpate::LoopStats st = (*loop)->stats();
+  EXPECT_EQ(st.ticks, 800u);
+  EXPECT_EQ(st.recorder_dropped, 0u);
+  EXPECT_FALSE(st.running);
+  // Loose bounds only: a shared 2-core machine; the benchmark reports the real figures.
+  EXPECT_GT(st.period.median, 0.5e-3);
+  EXPECT_LT(st.period.median, 2.0e-3);
+  EXPECT_GE(st.period.max, st.period.p99);
+  EXPECT_GE(st.period.p99, st.period.median);
+  EXPECT_GT(st.step.median, 0.0);
+  const auto rows = read_rows(csv);
+  ASSERT_EQ(rows.size(), 800u);
+  for (size_t k = 0; k < rows.size(); ++k) ASSERT_EQ(rows[k].tick, long(k));
+  EXPECT_FALSE(fs::exists(csv.string() + ".part"));
+}
+
+TEST(Loop, OverrunWatchdogSendsZeroAndRecovers) {
+  const fs::path csv = fs::temp_directory_path() / "palpate_test_loop_overrun" / "run.csv";
+  LinearFloor floor(500.0);
+  floor.sleep_every = 250;  // every 250th step takes 3 ms: a tick far past its deadline
+  floor.step_sleep = 0.003;
+  palpate::VirtualDevice dev;
+  palpate::DeviceState p;
+  p.position = Vec3(0, -0.002, 0);  // 3 mm into the floor: 1.5 N
+  dev.set_pose(p);
+  auto s = settings(csv, true);
+  s.max_ticks = 900;
+  s.watchdog.overrun_margin = 0.0005;
+  auto loop = palpate::HapticLoop::create(dev, {{&floor, 0.0}}, s);
+  ASSERT_TRUE(loop.ok()) << loop.error().message;
+  ASSERT_TRUE((*loop)->start());
+  (*loop)->wait();
+  ASSERT_TRUE((*loop)->finish_recording());
+  const palpate::LoopStats st = (*loop)->stats();
+  const auto rows = read_rows(csv);
+  ASSERT_EQ(rows.size(), 900u);
+  EXPECT_GE(st.safety.overrun, 3u);
+  EXPECT_EQ(count_event(rows, "overrun"), st.safety.overrun);
+  size_t last_overrun = 0;
+  for (size_t k = 1; k < rows.size(); ++k) {
+    ASSERT_LE(rows[k].force.norm(), kMaxForce + 1e-12);
+    ASSERT_LE((rows[k].force - rows[k - 1].force).norm(), kMaxStep + 1e-9) << k;
+    if (rows[k].events.find("overrun") != std::string::npos) {
+      // An overrunning tick never pushes harder: the force heads to zero.
+      EXPECT_LE(rows[k].force.norm(), rows[k - 1].force.norm() + 1e-12) << k;
+      last_overrun = k;
+    }
+  }
+  // And the loop recovers by itself: ramped back in to the full force.
+  if (last_overrun + 150 < rows.size()) {
+    EXPECT_NEAR(rows.back().force.y(), 1.5, 1e-9);
+  }
+}
+
+TEST(Loop, CreateRejectsBadSettings) {
+  palpate::VirtualDevice dev;
+  palpate::LoopSettings s;
+  s.dt = 0;
+  auto r = palpate::HapticLoop::create(dev, {}, s);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().message, "haptic loop: dt must be a positive number of seconds");
+  s.dt = 0.001;
+  r = palpate::HapticLoop::create(dev, {{nullptr, 0.0}}, s);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().message, "haptic loop: tissue 0 is null");
+  LinearFloor floor(1.0);
+  r = palpate::HapticLoop::create(dev, {{&floor, -1.0}}, s);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().message, "haptic loop: tissue 'floor': physics_dt must be >= 0 s");
+  s.realtime = false;
+  r = palpate::HapticLoop::create(dev, {}, s);
+  ASSERT_TRUE(r.ok());
+  const palpate::Status st = (*r)->start();
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().message, "haptic loop: built for headless runs (settings.realtime = false)");
+}
+
+TEST(Loop, RunSceneRealtimeWritesTimingToSummary) {
+  // `palpate run --realtime`: the same outputs as a headless run, plus the period statistics.
+  palpate::SceneDef s;
+  s.name = "realtime";
+  s.duration = 0.3;
+  s.device.waypoints = {{0.0, Vec3(0, 0.002, 0)}, {0.3, Vec3(0, -0.002, 0)}};
+  palpate::RunOptions o;
+  o.out = fs::temp_directory_path() / "palpate_test_run_realtime";
+  o.realtime = true;
+  o.realtime_priority = false;
+  o.plots = false;
+  std::vector<std::unique_ptr<palpate::Tissue>> tissues;
+  tissues.push_back(std::make_unique<LinearFloor>(500.0));
+  auto r = palpate::run_scene(s, std::move(tissues), o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_TRUE(r->realtime);
+  EXPECT_EQ(r->ticks, 300u);
+  EXPECT_EQ(r->recorder_dropped, 0u);
+  EXPECT_GT(r->period.median, 0.0);
+  const auto rows = read_rows(o.out / "run.csv");
+  ASSERT_EQ(rows.size(), 300u);
+  for (size_t k = 0; k < rows.size(); ++k) ASSERT_EQ(rows[k].tick, long(k));
+  std::ifstream in(o.out / "summary.json");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string j = ss.str();
+  for (const char* key : {"\"period_s\"", "\"deadline_misses\"", "\"realtime\": true", "\"overrun\"",
+                          "\"stalled\"", "\"recorder_dropped\": 0"})
+    EXPECT_NE(j.find(key), std::string::npos) << key << " in " << j;
+}

@@ -1,0 +1,149 @@
+// test_multirate.cpp — tissues on their own physics thread: the linearised contact renders a
+// linear tissue's force exactly between its steps; a stalled physics thread gives zero force.
+#include <palpate/haptics.h>
+
+#include "haptics/doubles.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fs = std::filesystem;
+using palpate::Vec3;
+using namespace palpate::test;
+
+namespace {
+
+constexpr double kDt = 0.001;
+
+// 2 mm above the floor down to 4 mm below it over one second: 6 mm/s.
+Vec3 descent(long k) { return Vec3(0, 0.002 - 0.006 * double(k) / 1000.0, 0); }
+
+double floor_force(double k_floor, long tick) {
+  return k_floor * std::max(0.0, 0.001 - descent(tick).y());  // tool radius 1 mm
+}
+
+palpate::LoopSettings headless() {
+  palpate::LoopSettings s;
+  s.dt = kDt;
+  s.realtime = false;
+  s.ramp_in = 0;
+  return s;
+}
+
+}  // namespace
+
+TEST(MultiRate, LinearisedContactRendersLinearTissueExactlyBetweenSteps) {
+  // The tissue steps every 10 ticks; between its steps the loop renders F0 + J·(x − x0) with J
+  // from the secant of its last two steps: exact for a linear floor once both are in contact.
+  const double k = 300.0;
+  LinearFloor floor(k);
+  FunctionDevice dev(&descent, kDt, 1000);
+  auto loop = palpate::HapticLoop::create(dev, {{&floor, 0.010}}, headless());
+  ASSERT_TRUE(loop.ok()) << loop.error().message;
+  (*loop)->run_headless(1000);
+  long contact = -1;
+  for (long t = 0; t < 1000 && contact < 0; ++t)
+    if (floor_force(k, t) > 0) contact = t;
+  ASSERT_GT(contact, 0);
+  double max_jump = 0;
+  for (long t = contact + 30; t < 1000; ++t) {
+    EXPECT_NEAR(dev.written[size_t(t)].y(), floor_force(k, t), 1e-9) << "tick " << t;
+    max_jump = std::max(max_jump, std::abs(dev.written[size_t(t)].y() - dev.written[size_t(t - 1)].y()));
+  }
+  // Smooth at 1 kHz: each tick changes by k·v·dt, not by the 10-tick jump a hold would give.
+  EXPECT_LT(max_jump, 1.001 * k * 0.006 * kDt);
+}
+
+TEST(MultiRate, ModelSuppliedJacobianIsUsedFromItsFirstStep) {
+  const double k = 300.0;
+  FloorWithJacobian floor(k);
+  FunctionDevice dev(&descent, kDt, 1000);
+  auto loop = palpate::HapticLoop::create(dev, {{&floor, 0.010}}, headless());
+  ASSERT_TRUE(loop.ok()) << loop.error().message;
+  (*loop)->run_headless(1000);
+  long contact = -1;
+  for (long t = 0; t < 1000 && contact < 0; ++t)
+    if (floor_force(k, t) > 0) contact = t;
+  // The first physics step in contact already carries the exact stiffness.
+  for (long t = contact + 11; t < 1000; ++t)
+    EXPECT_NEAR(dev.written[size_t(t)].y(), floor_force(k, t), 1e-9) << "tick " << t;
+}
+
+TEST(MultiRate, StalledPhysicsThreadGivesZeroForceAndRecovers) {
+  const fs::path csv = fs::temp_directory_path() / "palpate_test_multirate_stall" / "run.csv";
+  LinearFloor floor(500.0);
+  palpate::VirtualDevice dev;
+  palpate::DeviceState p;
+  p.position = Vec3(0, -0.002, 0);  // 3 mm into the floor: 1.5 N
+  dev.set_pose(p);
+  palpate::LoopSettings s;
+  s.dt = kDt;
+  s.realtime = true;
+  s.try_realtime_priority = false;
+  s.ramp_in = 0.05;
+  s.max_ticks = 2000;
+  s.watchdog.stall_timeout = 0.1;
+  // This test is about stalls: a loaded test machine's overruns (tested elsewhere) must not keep
+  // restarting the ramp-in before the stall begins.
+  s.watchdog.overrun_margin = 0.05;
+  s.csv = csv;
+  auto loop = palpate::HapticLoop::create(dev, {{&floor, 0.004}}, s);
+  ASSERT_TRUE(loop.ok()) << loop.error().message;
+  ASSERT_TRUE((*loop)->start());
+  // Stall once the full force is being sent (not after a fixed time: a loaded machine is slower).
+  for (int i = 0; i < 2000 && std::abs(dev.force().y() - 1.5) > 1e-9; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  ASSERT_NEAR(dev.force().y(), 1.5, 1e-9) << "the loop never reached the full force";
+  floor.stall = true;  // the physics thread blocks inside its step
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  floor.stall = false;
+  (*loop)->wait();
+  ASSERT_TRUE((*loop)->finish_recording());
+  const palpate::LoopStats st = (*loop)->stats();
+
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  std::vector<double> fy;
+  std::vector<bool> stalled;
+  long expect_tick = 0;
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+    ASSERT_EQ(std::stol(f.at(8)), expect_tick++);
+    fy.push_back(std::stod(f.at(5)));
+    stalled.push_back(f.at(14).find("stalled") != std::string::npos);
+  }
+  ASSERT_EQ(fy.size(), 2000u);
+  size_t n_stalled = 0, first = fy.size();
+  for (size_t k = 0; k < fy.size(); ++k) {
+    ASSERT_LE(std::abs(fy[k]), 3.3 + 1e-12);
+    if (k) {
+      ASSERT_LE(std::abs(fy[k] - fy[k - 1]), 0.2 + 1e-9) << k;
+    }
+    if (!stalled[k]) continue;
+    ++n_stalled;
+    first = std::min(first, k);
+    // Zero during the stall, once the rate limit has brought it down (1.5 N at 0.2 N a tick).
+    if (k >= first + 8) {
+      ASSERT_EQ(fy[k], 0.0) << "tick " << k;
+    }
+  }
+  EXPECT_GE(n_stalled, 150u);  // a 500 ms stall minus the 100 ms timeout, with slack for load
+  EXPECT_EQ(n_stalled, st.safety.stalled);
+  // It was pressing before the stall (overruns on a loaded machine may restart the ramp-in, so
+  // look for the full force anywhere before), and it recovers on its own once the physics thread
+  // moves again.
+  size_t last_stalled = 0;
+  for (size_t k = 0; k < fy.size(); ++k)
+    if (stalled[k]) last_stalled = k;
+  double before = 0, after = 0;
+  for (size_t k = 0; k < first; ++k) before = std::max(before, fy[k]);
+  for (size_t k = last_stalled + 1; k < fy.size(); ++k) after = std::max(after, fy[k]);
+  EXPECT_NEAR(before, 1.5, 1e-6);
+  EXPECT_NEAR(after, 1.5, 1e-6);
+}

@@ -1,0 +1,107 @@
+// test_recorder.cpp — the recorder: every row reaches the CSV in order, events are named, and a
+// run killed mid-way keeps every whole row up to its last flush.
+#include "haptics/recorder.h"
+
+#include <palpate/safety.h>
+
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <sys/wait.h>
+#include <thread>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+}  // namespace
+
+TEST(Recorder, EveryRowReachesTheFileInOrder) {
+  const fs::path csv = fs::temp_directory_path() / "palpate_test_recorder" / "run.csv";
+  fs::remove(csv);
+  palpate::RecorderOptions o;
+  o.capacity_rows = 1024;
+  o.keep_columns = {1};
+  auto r = palpate::Recorder::open(csv, {"tick", "t", "events"},
+                                   {palpate::ColumnFormat::integer, palpate::ColumnFormat::number,
+                                    palpate::ColumnFormat::safety_events},
+                                   o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  constexpr int kN = 120000;  // two minutes at 1 kHz, pushed as fast as the writer takes them
+  for (int i = 0; i < kN; ++i) {
+    const double mask = i % 1000 == 0 ? double(palpate::kEventClamped | palpate::kEventRateLimited) : 0.0;
+    const double row[3] = {double(i), (i + 1) * 0.001, mask};
+    (*r)->push_wait(row);
+  }
+  ASSERT_TRUE((*r)->push_event({0.5, "puncture", 0, 0.002, 1.5}));
+  ASSERT_TRUE((*r)->close());
+  EXPECT_EQ((*r)->dropped(), 0u);
+  EXPECT_EQ((*r)->rows_written(), std::uint64_t(kN));
+  EXPECT_FALSE(fs::exists(csv.string() + ".part"));
+  ASSERT_EQ((*r)->kept(0).size(), size_t(kN));
+  EXPECT_EQ((*r)->kept(0).back(), kN * 0.001);
+  ASSERT_EQ((*r)->events().size(), 1u);
+  EXPECT_STREQ((*r)->events()[0].kind, "puncture");
+
+  std::istringstream in(slurp(csv));
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "tick,t,events");
+  long expect = 0;
+  while (std::getline(in, line)) {
+    ASSERT_EQ(std::stol(line), expect) << line;
+    if (expect % 1000 == 0)
+      ASSERT_EQ(line.substr(line.rfind(',') + 1), "clamped|rate_limited") << line;
+    else
+      ASSERT_EQ(line.back(), ',') << line;
+    ++expect;
+  }
+  EXPECT_EQ(expect, kN);
+}
+
+TEST(Recorder, KilledRunKeepsWholeRowsUpToLastFlush) {
+  const fs::path csv = fs::temp_directory_path() / "palpate_test_recorder_kill" / "run.csv";
+  fs::remove(csv);
+  fs::remove(csv.string() + ".part");
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    // The child records at 1 kHz until it is killed; it never closes the recorder.
+    auto r = palpate::Recorder::open(csv, {"tick", "x"}, {palpate::ColumnFormat::integer});
+    if (!r) ::_exit(3);
+    for (long i = 0;; ++i) {
+      const double row[2] = {double(i), 0.123456789 * double(i)};
+      (*r)->push(row);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status));
+  const std::string text = slurp(csv.string() + ".part");
+  ASSERT_FALSE(text.empty());
+  EXPECT_EQ(text.back(), '\n');  // only whole rows were written
+  std::istringstream in(text);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "tick,x");
+  long expect = 0;
+  while (std::getline(in, line)) {
+    long tick = -1;
+    double x = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%ld,%lf", &tick, &x), 2) << line;
+    ASSERT_EQ(tick, expect++);
+  }
+  EXPECT_GE(expect, 100);  // ~600 rows pushed, flushed every 100 ms; slack for a loaded machine
+}

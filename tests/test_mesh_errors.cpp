@@ -1,0 +1,351 @@
+// test_mesh_errors.cpp — bad mesh files: each is refused with an error naming the file and the line or element.
+#include <palpate/mesh.h>
+
+#include "mesh_test_files.h"
+
+#include <gtest/gtest.h>
+
+#include <initializer_list>
+#include <limits>
+#include <random>
+
+namespace {
+
+using palpate::test::ScratchDir;
+using palpate::test::shared_mesh;
+
+// The message starts with the file's path (for TetGen, the .node or .ele of the same name: the
+// error names whichever of the pair is wrong).
+bool names_file(const std::string& msg, const std::filesystem::path& file) {
+  const std::string ext = file.extension().string();
+  if (ext == ".node" || ext == ".ele") {
+    std::filesystem::path stem = file;
+    stem.replace_extension("");
+    return msg.rfind(stem.string() + ".node", 0) == 0 || msg.rfind(stem.string() + ".ele", 0) == 0;
+  }
+  return msg.rfind(file.string(), 0) == 0;
+}
+
+// The message starts with the file's path and contains every one of `parts`.
+template <class T>
+void expect_error(const palpate::Result<T>& r, const std::filesystem::path& file,
+                  std::initializer_list<const char*> parts) {
+  ASSERT_FALSE(r.ok()) << file << " loaded but should not";
+  const std::string& msg = r.error().message;
+  EXPECT_TRUE(names_file(msg, file)) << "message does not start with the file: " << msg;
+  for (const char* p : parts) EXPECT_NE(msg.find(p), std::string::npos) << "'" << p << "' not in: " << msg;
+}
+
+std::string fmt_row(const Eigen::RowVector3d& r) {
+  return std::to_string(r(0)) + " " + std::to_string(r(1)) + " " + std::to_string(r(2)) + "\n";
+}
+
+const char* const kSurfaceExts[] = {".obj", ".stl", ".ply", ".off"};
+const char* const kTetExts[] = {".msh", ".node", ".ele", ".vtk"};
+
+TEST(MeshErrors, NonexistentFile) {
+  ScratchDir dir;
+  for (const char* ext : kSurfaceExts) {
+    const auto f = dir.path(std::string("missing") + ext);
+    expect_error(palpate::load_surface(f), f, {"no such file"});
+  }
+  for (const char* ext : kTetExts) {
+    const auto f = dir.path(std::string("missing") + ext);
+    expect_error(palpate::load_tet(f), f, {"no such file"});
+  }
+}
+
+TEST(MeshErrors, EmptyFile) {
+  ScratchDir dir;
+  for (const char* ext : kSurfaceExts) {
+    const auto f = dir.write(std::string("empty") + ext, "");
+    EXPECT_EQ(palpate::load_surface(f).error().message, f.string() + ": empty file");
+  }
+  for (const char* ext : {".msh", ".vtk"}) {
+    const auto f = dir.write(std::string("empty") + ext, "");
+    EXPECT_EQ(palpate::load_tet(f).error().message, f.string() + ": empty file");
+  }
+  const auto node = dir.write("empty.node", ""), ele = dir.write("empty.ele", "");
+  EXPECT_EQ(palpate::load_tet(ele).error().message, node.string() + ": empty file");
+}
+
+TEST(MeshErrors, UnknownExtensionAndBadScale) {
+  ScratchDir dir;
+  const auto f = dir.write("cube.xyz123", "hello\n");
+  expect_error(palpate::load_surface(f), f, {"unknown surface mesh format '.xyz123'"});
+  expect_error(palpate::load_tet(f), f, {"unknown tetrahedral mesh format '.xyz123'"});
+  const auto cube = palpate::test::test_mesh("cube.off");
+  expect_error(palpate::load_surface(cube, -1.0), cube, {"scale is -1, expected a positive finite factor"});
+  expect_error(palpate::load_tet(shared_mesh("liver.msh"), 0.0), shared_mesh("liver.msh"), {"scale is 0"});
+}
+
+TEST(MeshErrors, NanCoordinateNamesTheVertex) {
+  ScratchDir dir;
+  const auto vtk = dir.write("nan.vtk",
+                             "# vtk DataFile Version 3.0\nnan\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n"
+                             "0 0 0\n1 0 0\n0 1 0\n0 0 nan\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n");
+  EXPECT_EQ(palpate::load_tet(vtk).error().message, vtk.string() + ": vertex 3 has a non-finite coordinate (0, 0, nan)");
+  dir.write("inf.node", "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 inf 0\n3 0 0 1\n");
+  const auto ele = dir.write("inf.ele", "1 4 0\n0 0 1 2 3\n");
+  // The error names the path the caller gave.
+  EXPECT_EQ(palpate::load_tet(ele).error().message, ele.string() + ": vertex 2 has a non-finite coordinate (0, inf, 0)");
+  palpate::SurfaceMesh m = palpate::test::cube_surface();
+  m.V(5, 1) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(palpate::validate(m, "cube.obj").error().message, "cube.obj: vertex 5 has a non-finite coordinate (1, nan, 1)");
+}
+
+TEST(MeshErrors, IndexOutOfRangeNamesElementIndexAndRange) {
+  // In memory: the message of the design brief, word for word.
+  palpate::SurfaceMesh m;
+  m.V = palpate::RowMat3d::Random(181, 3);
+  m.F = palpate::RowMat3i::Zero(20, 3);
+  for (int f = 0; f < 20; ++f) m.F.row(f) << f, f + 1, f + 2;
+  m.F(17, 1) = 999;
+  EXPECT_EQ(palpate::validate(m, "liver.obj").error().message,
+            "liver.obj: triangle 17 has vertex index 999 out of range [0, 181)");
+  palpate::TetMesh t = palpate::test::cube_tets();
+  t.T(3, 2) = -1;
+  EXPECT_EQ(palpate::validate(t, "cube.msh").error().message,
+            "cube.msh: tetrahedron 3 has vertex index -1 out of range [0, 8)");
+
+  // In files: the reader names the line.
+  ScratchDir dir;
+  const auto vtk = dir.write("range.vtk",
+                             "# vtk DataFile Version 3.0\nrange\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n"
+                             "0 0 0\n1 0 0\n0 1 0\n0 0 1\nCELLS 2 10\n4 0 1 2 3\n4 0 1 2 4\nCELL_TYPES 2\n10 10\n");
+  EXPECT_EQ(palpate::load_tet(vtk).error().message, vtk.string() + ":12: cell 1 has point index 4 out of range [0, 4)");
+  dir.write("range.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
+  const auto ele = dir.write("range.ele", "2 4 0\n1 1 2 3 4\n# a comment line\n2 1 2 3 9\n");
+  EXPECT_EQ(palpate::load_tet(ele).error().message,
+            ele.string() + ":4: tetrahedron 2 has node 9, expected a node number in [1, 5)");
+  const auto msh = dir.write("range.msh",
+                             "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n"
+                             "$EndNodes\n$Elements\n1\n1 4 2 1 1 1 2 3 9\n$EndElements\n");
+  expect_error(palpate::load_tet(msh), msh, {"Gmsh"});
+  const auto obj = dir.write("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n");
+  expect_error(palpate::load_surface(obj), obj, {});
+  const auto off = dir.write("range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n");
+  EXPECT_EQ(palpate::load_surface(off).error().message, off.string() + ":6: face 0 has vertex index 5 out of range [0, 3)");
+}
+
+TEST(MeshErrors, DegenerateAndInvertedTetrahedra) {
+  ScratchDir dir;
+  // Tetrahedron 1 is flat: its fourth vertex lies in the plane of the other three.
+  const auto flat = dir.write("flat.vtk",
+                              "# vtk DataFile Version 3.0\nflat\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 5 double\n"
+                              "0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 0\nCELLS 2 10\n4 0 1 2 3\n4 0 1 2 4\nCELL_TYPES 2\n10 10\n");
+  expect_error(palpate::load_tet(flat), flat, {": tetrahedron 1 (vertices 0, 1, 2, 4) is degenerate: volume 0"});
+  // Tetrahedron 1 has two corners swapped.
+  dir.write("inv.node", "5 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n4 1 1 1\n");
+  const auto inv = dir.write("inv.ele", "2 4 0\n0 0 1 2 3\n1 1 2 4 3\n");
+  EXPECT_EQ(palpate::load_tet(inv).error().message,
+            inv.string() + ": tetrahedron 1 (vertices 1, 2, 4, 3) is inverted: volume -0.333333 < 0, expected "
+                           "(v1-v0)·((v2-v0)×(v3-v0)) > 0");
+  // Repeated vertex: zero volume however the tolerance is chosen.
+  palpate::TetMesh t = palpate::test::cube_tets();
+  t.T(4, 3) = t.T(4, 0);
+  expect_error(palpate::Result<int>(palpate::validate(t, "cube").error()), "cube", {"tetrahedron 4", "degenerate"});
+}
+
+TEST(MeshErrors, DegenerateTriangle) {
+  ScratchDir dir;
+  const auto obj = dir.write("sliver.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n");
+  expect_error(palpate::load_surface(obj), obj, {": triangle 1 (vertices 0, 1, 3) is degenerate: area 0"});
+}
+
+TEST(MeshErrors, NonManifoldEdgeWhenManifoldIsRequired) {
+  ScratchDir dir;
+  // Three triangles hinge on the edge (0, 1).
+  const auto fan = dir.write("fan.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n");
+  EXPECT_TRUE(palpate::load_surface(fan).ok());  // readable when nothing more is asked
+  EXPECT_EQ(palpate::load_surface(fan, 1.0, {.manifold = true}).error().message,
+            fan.string() + ": non-manifold edge (0, 1): shared by 3 triangles (0, 1, 2), expected at most 2");
+  // Two triangles traverse the edge (0, 1) the same way: one is flipped.
+  const auto flip = dir.write("flip.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nf 1 2 3\nf 1 2 4\n");
+  EXPECT_EQ(palpate::load_surface(flip, 1.0, {.manifold = true}).error().message,
+            flip.string() + ": non-manifold edge (0, 1): triangles 0 and 1 traverse it in the same direction "
+                            "(inconsistent orientation)");
+}
+
+TEST(MeshErrors, OpenSurfaceWhenClosedIsRequired) {
+  ScratchDir dir;
+  // The cube without its top (two triangles): 4 boundary edges.
+  std::string off = "OFF\n8 10 0\n";
+  const palpate::SurfaceMesh cube = palpate::test::cube_surface();
+  for (int v = 0; v < 8; ++v) off += fmt_row(cube.V.row(v));
+  for (int f = 0; f < 12; ++f)
+    if (f != 2 && f != 3) off += "3 " + std::to_string(cube.F(f, 0)) + " " + std::to_string(cube.F(f, 1)) + " " +
+                                 std::to_string(cube.F(f, 2)) + "\n";
+  const auto f = dir.write("open.off", off);
+  EXPECT_TRUE(palpate::load_surface(f, 1.0, {.manifold = true}).ok());
+  expect_error(palpate::load_surface(f, 1.0, {.closed = true}), f,
+               {": open surface: 4 boundary edges, e.g. edge (", "expected a closed surface"});
+}
+
+TEST(MeshErrors, TruncatedFiles) {
+  ScratchDir dir;
+  const auto cut = [&](const std::filesystem::path& from, const std::string& name, double fraction) {
+    const std::string text = palpate::test::read_text(from);
+    const size_t at = static_cast<size_t>(fraction * static_cast<double>(text.size()));
+    return dir.write(name, text.substr(0, text.rfind('\n', at) + 1));  // cut after a whole line
+  };
+  const auto vtk = cut(shared_mesh("liver_tet.vtk"), "liver.vtk", 0.5);
+  expect_error(palpate::load_tet(vtk), vtk, {"unexpected end of file, expected a cell's point"});
+  const auto vtk_points = cut(shared_mesh("liver_tet.vtk"), "points.vtk", 0.2);
+  expect_error(palpate::load_tet(vtk_points), vtk_points, {"unexpected end of file, expected a point coordinate"});
+  // So short that the promised count cannot fit: refused before any memory is sized by it.
+  const auto vtk_short = cut(shared_mesh("liver_tet.vtk"), "short.vtk", 0.05);
+  EXPECT_EQ(palpate::load_tet(vtk_short).error().message,
+            vtk_short.string() + ":5: the number of points is 181, more than the file can hold");
+  const auto msh = cut(shared_mesh("liver.msh"), "liver.msh", 0.5);
+  expect_error(palpate::load_tet(msh), msh, {"Gmsh could not read the mesh"});
+  dir.write("liver.node", palpate::test::read_text(shared_mesh("liver_tet.node")));
+  const auto ele = cut(shared_mesh("liver_tet.ele"), "liver.ele", 0.9);
+  expect_error(palpate::load_tet(ele), ele, {"unexpected end of file, expected tetrahedron"});
+  const auto ply = cut(palpate::test::test_mesh("cube.ply"), "cube.ply", 0.8);
+  expect_error(palpate::load_surface(ply), ply, {});
+  const auto off = cut(palpate::test::test_mesh("cube.off"), "cube.off", 0.8);
+  expect_error(palpate::load_surface(off, 1.0, {.closed = true}), off, {});
+  // Binary STL of 12 triangles cut inside the 5th.
+  std::string stl(80, ' ');
+  stl += std::string("\x0c\x00\x00\x00", 4) + std::string(4 * 50 + 20, '\0');
+  const auto bin = dir.write("cut.stl", stl);
+  expect_error(palpate::load_surface(bin), bin, {});
+}
+
+TEST(MeshErrors, WrongHeader) {
+  ScratchDir dir;
+  const auto vtk = dir.write("wrong.vtk", "# vtk DataFile\nx\nASCII\nDATASET UNSTRUCTURED_GRID\n");
+  EXPECT_EQ(palpate::load_tet(vtk).error().message,
+            vtk.string() + ":1: expected the legacy VTK header '# vtk DataFile Version', found '# vtk DataFile'");
+  const auto poly = dir.write("poly.vtk", "# vtk DataFile Version 2.0\nx\nASCII\nDATASET POLYDATA\nPOINTS 0 float\n");
+  EXPECT_EQ(palpate::load_tet(poly).error().message,
+            poly.string() + ":4: expected DATASET UNSTRUCTURED_GRID, found DATASET POLYDATA (only tetrahedral grids "
+                            "are read)");
+  const auto bin = dir.write("bin.vtk", "# vtk DataFile Version 2.0\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\n");
+  EXPECT_EQ(palpate::load_tet(bin).error().message, bin.string() + ":3: binary VTK files are not supported, expected ASCII");
+  const auto msh = dir.write("wrong.msh", "Merge \"other.stl\";\n");
+  EXPECT_EQ(palpate::load_tet(msh).error().message,
+            msh.string() + ":1: expected a Gmsh mesh header ($MeshFormat, or $NOD for format 1), found 'Merge "
+                           "\"other.stl\";'");
+  const auto version = dir.write("version.msh", "$MeshFormat\n9.9 0 8\n$EndMeshFormat\n");
+  expect_error(palpate::load_tet(version), version, {"Gmsh could not read the mesh: Unknown MSH file version 9.9"});
+  const auto node = dir.write("wrong.node", "points 3 0 0\n");
+  dir.write("wrong.ele", "1 4 0\n");
+  EXPECT_EQ(palpate::load_tet(node).error().message,
+            node.string() + ":1: expected the number of points (an integer) as value 1, found 'points'");
+  const auto dim = dir.write("dim.node", "# 2-D\n\n3 2 0 0\n");
+  dir.write("dim.ele", "1 4 0\n");
+  EXPECT_EQ(palpate::load_tet(dim).error().message, dim.string() + ":3: expected dimension 3, found 2");
+  const auto ply = dir.write("wrong.ply", "plx\nformat ascii 1.0\nend_header\n");
+  EXPECT_EQ(palpate::load_surface(ply).error().message, ply.string() + ":1: expected the PLY magic line 'ply'");
+  // A header that never ends (assimp 5.2 would loop forever on it).
+  const auto endless = dir.write("endless.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_head/r\n0\n");
+  EXPECT_EQ(palpate::load_surface(endless).error().message,
+            endless.string() + ":6: unexpected end of file, expected 'end_header' to close the PLY header");
+  const auto off = dir.write("wrong.off", "OFX\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_EQ(palpate::load_surface(off).error().message, off.string() + ":1: expected the OFF header line 'OFF'");
+}
+
+// Damaged Gmsh files that crashed Gmsh 4.8 itself (found by fuzzing) are refused before it reads them.
+TEST(MeshErrors, GmshFilesThatWouldCrashGmsh) {
+  ScratchDir dir;
+  const std::string v4 = palpate::test::read_text(palpate::test::test_mesh("cube_v4.msh"));
+  const auto replaced = [&](const std::string& name, const std::string& from, const std::string& to) {
+    std::string text = v4;
+    text.replace(text.find(from), from.size(), to);
+    return dir.write(name, text);
+  };
+  // The $Nodes header promises 1 node, its blocks hold 8 (Gmsh wrote past its array).
+  const auto total = replaced("total.msh", "$Nodes\n2 8 1 8", "$Nodes\n2 1 1 8");
+  EXPECT_EQ(palpate::load_tet(total).error().message,
+            total.string() + ":11: $Nodes: block 0 ('2 1 0 4') does not fit the header's total of 1");
+  // A section name run together with the next line (Gmsh segfaulted).
+  const auto joined = replaced("joined.msh", "$Nodes\n2 8 1 8", "$Nodes02 8 1 8");
+  EXPECT_EQ(palpate::load_tet(joined).error().message,
+            joined.string() + ":9: expected a section name such as $Nodes, found '$Nodes02 8 1 8'");
+  // Tags up to 10^12 (Gmsh sizes a dense array by the largest tag).
+  const auto tags = replaced("tags.msh", "$Nodes\n2 8 1 8", "$Nodes\n2 8 1 1000000000000");
+  EXPECT_EQ(palpate::load_tet(tags).error().message,
+            tags.string() + ":10: $Nodes tags run up to 1000000000000, far beyond the file's size (expected at most "
+                            "1000000)");
+  const auto many = replaced("many.msh", "$Elements\n2 7 1 7", "$Elements\n2 7000000000 1 7");
+  EXPECT_EQ(palpate::load_tet(many).error().message,
+            many.string() + ":31: $Elements promises 7000000000 elements, more than the file can hold");
+  // Binary: one byte cut out of the nodes shifts every later field.
+  std::string bin = palpate::test::read_text(palpate::test::test_mesh("cube_v4_binary.msh"));
+  bin.erase(bin.find("$Nodes") + 60, 1);
+  const auto cut = dir.write("cut.msh", bin);
+  expect_error(palpate::load_tet(cut), cut, {"$Nodes (binary"});
+  // Binary: an element's node tag far outside the nodes' range (Gmsh segfaulted).
+  std::string far = palpate::test::read_text(palpate::test::test_mesh("cube_v4_binary.msh"));
+  far[919] = '\xcb';  // high byte of the last element's last node tag
+  const auto far_node = dir.write("far.msh", far);
+  expect_error(palpate::load_tet(far_node), far_node, {"$Elements (binary", "outside the $Nodes range [1, 8]"});
+  // Gmsh still reads good files after all of these.
+  EXPECT_TRUE(palpate::load_tet(palpate::test::test_mesh("cube_v4.msh")).ok());
+}
+
+// Random bytes, and valid files with random bytes overwritten, under every extension: each
+// either loads and validates or fails with a message that starts with the file name. Never a crash.
+TEST(MeshErrors, GarbageNeverCrashes) {
+  ScratchDir dir;
+  std::mt19937 rng(20240611);
+  std::uniform_int_distribution<int> byte(0, 255);
+  const auto random_bytes = [&](size_t n) {
+    std::string s(n, '\0');
+    for (char& c : s) c = static_cast<char>(byte(rng));
+    return s;
+  };
+  const auto check_surface = [&](const std::filesystem::path& f) {
+    const auto r = palpate::load_surface(f);
+    if (r.ok()) EXPECT_TRUE(palpate::validate(*r, f.string()).ok());
+    else EXPECT_TRUE(names_file(r.error().message, f)) << r.error().message;
+  };
+  const auto check_tet = [&](const std::filesystem::path& f) {
+    const auto r = palpate::load_tet(f);
+    if (r.ok()) EXPECT_TRUE(palpate::validate(*r, f.string()).ok());
+    else EXPECT_TRUE(names_file(r.error().message, f)) << r.error().message;
+  };
+  for (int round = 0; round < 4; ++round) {
+    for (const char* ext : kSurfaceExts) check_surface(dir.write("random" + std::to_string(round) + ext, random_bytes(1000)));
+    for (const char* ext : kTetExts) {
+      const std::string stem = "random" + std::to_string(round);
+      dir.write(stem + ".node", random_bytes(500));
+      dir.write(stem + ".ele", random_bytes(500));
+      check_tet(dir.write(stem + ext, random_bytes(1000)));
+    }
+  }
+  // Mutants: a valid file with a few bytes replaced by random printable characters.
+  const std::pair<std::filesystem::path, bool> sources[] = {
+      {palpate::test::test_mesh("cube_ascii.stl"), false}, {palpate::test::test_mesh("cube.ply"), false},
+      {palpate::test::test_mesh("cube.off"), false},       {palpate::test::test_mesh("cube_v2.msh"), true},
+      {palpate::test::test_mesh("cube_v4.msh"), true},     {palpate::test::test_mesh("cube_v4_binary.msh"), true},
+      {shared_mesh("liver_tet.vtk"), true},                {shared_mesh("liver.obj"), false}};
+  std::uniform_int_distribution<int> printable(32, 126);
+  for (const auto& [source, tet] : sources) {
+    const std::string text = palpate::test::read_text(source);
+    for (int round = 0; round < 12; ++round) {
+      std::string mutant = text;
+      std::uniform_int_distribution<size_t> at(0, mutant.size() - 1);
+      for (int k = 0; k < 3; ++k) mutant[at(rng)] = static_cast<char>(round % 2 ? printable(rng) : byte(rng));
+      const auto f = dir.write("mutant" + std::to_string(round) + source.extension().string(), mutant);
+      SCOPED_TRACE(source.string() + " mutant " + std::to_string(round));
+      if (tet) check_tet(f);
+      else check_surface(f);
+    }
+  }
+  // TetGen mutants, .node and .ele each.
+  const std::string node = palpate::test::read_text(palpate::test::test_mesh("cube_1based.node"));
+  const std::string ele = palpate::test::read_text(palpate::test::test_mesh("cube_1based.ele"));
+  for (int round = 0; round < 12; ++round) {
+    std::string n = node, e = ele;
+    std::string& target = round % 2 ? n : e;
+    std::uniform_int_distribution<size_t> at(0, target.size() - 1);
+    for (int k = 0; k < 2; ++k) target[at(rng)] = static_cast<char>(printable(rng));
+    dir.write("tg" + std::to_string(round) + ".node", n);
+    check_tet(dir.write("tg" + std::to_string(round) + ".ele", e));
+  }
+}
+
+}  // namespace

@@ -1,0 +1,87 @@
+// test_render_frame.cpp — frames of a scene from tissue snapshots: the tissue fills the view, the
+// tool's dent shows as a pixel difference where it presses, and the PNG is written.
+#include <palpate/render.h>
+#include <palpate/scene.h>
+#include <palpate/tissue.h>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+using namespace palpate;
+
+namespace {
+
+struct Frame {
+  Image image;
+  std::optional<Eigen::Vector2d> tip_px;
+};
+
+Frame render(const SceneDef& scene, std::vector<std::unique_ptr<Tissue>>& tissues, const Vec3& tip,
+             const Vec3& force) {
+  std::vector<TissueSnapshot> snaps(tissues.size());
+  for (size_t i = 0; i < tissues.size(); ++i) tissues[i]->snapshot(snaps[i]);
+  std::vector<std::vector<float>> storage;
+  std::vector<std::vector<uint32_t>> idx;
+  auto rs = frame_scene(scene, snaps, tip, force, {}, storage, idx);
+  EXPECT_TRUE(rs.ok()) << rs.error().message;
+  rs->supersample = 1;
+  auto img = render_rgba(*rs);
+  EXPECT_TRUE(img.ok()) << img.error().message;
+  return {std::move(*img), project_to_pixel(rs->camera, tip)};
+}
+
+}  // namespace
+
+TEST(RenderFrame, ProbeDentShowsWhereItPresses) {
+  auto scene = load_scene(PALPATE_SOURCE_DIR "/data/scenes/probe.yaml");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  scene->camera = CameraDef{};
+  scene->camera->position = Vec3(0.0, 0.06, 0.04);
+  scene->camera->target = Vec3::Zero();
+  scene->camera->width = 200, scene->camera->height = 150;
+  std::vector<std::unique_ptr<Tissue>> tissues;
+  for (int i = 0; i < int(scene->tissues.size()); ++i) {
+    auto t = make_tissue(*scene, i);
+    ASSERT_TRUE(t.ok()) << t.error().message;
+    tissues.push_back(std::move(*t));
+  }
+  const Vec3 far(0, 0.05, 0);
+  Frame rest = render(*scene, tissues, far, Vec3::Zero());
+  // The tissue fills the middle of the view; the background shows at a top corner.
+  const uint8_t* bg = rest.image.pixel(2, 2);
+  const uint8_t* mid = rest.image.pixel(100, 80);
+  EXPECT_GT(std::abs(int(mid[0]) - int(bg[0])) + std::abs(int(mid[1]) - int(bg[1])), 60);
+
+  // Press the probe 4 mm in and draw again: pixels change around the tool, not in the far corners.
+  ToolState tool;
+  tool.radius = scene->tool.radius;
+  Vec3 f = Vec3::Zero();
+  for (int k = 0; k <= 400; ++k) {
+    tool.time = k * 0.001;
+    tool.tip = Vec3(0, 0.004 - k * 2e-5, 0);
+    f = Vec3::Zero();
+    for (auto& t : tissues) f += t->step(tool, 0.001);
+  }
+  Frame pressed = render(*scene, tissues, tool.tip, f);
+  ASSERT_TRUE(pressed.tip_px.has_value());
+  const int cx = int(pressed.tip_px->x()), cy = int(pressed.tip_px->y());
+  int near_changed = 0, far_changed = 0;
+  for (int y = 0; y < 150; ++y)
+    for (int x = 0; x < 200; ++x) {
+      const uint8_t* a = rest.image.pixel(x, y);
+      const uint8_t* b = pressed.image.pixel(x, y);
+      const bool changed = std::abs(int(a[0]) - int(b[0])) + std::abs(int(a[1]) - int(b[1])) +
+                               std::abs(int(a[2]) - int(b[2])) > 24;
+      const bool near = std::hypot(x - cx, y - cy) < 40;
+      (near ? near_changed : far_changed) += changed ? 1 : 0;
+    }
+  EXPECT_GT(near_changed, 200);
+  EXPECT_LT(far_changed, near_changed / 4);
+
+  const auto file = std::filesystem::temp_directory_path() / "palpate_frame.png";
+  std::vector<TissueSnapshot> snaps(tissues.size());
+  for (size_t i = 0; i < tissues.size(); ++i) tissues[i]->snapshot(snaps[i]);
+  ASSERT_TRUE(render_frame_png(*scene, snaps, tool.tip, f, file).ok());
+  EXPECT_GT(std::filesystem::file_size(file), 1000u);
+}

@@ -1,0 +1,178 @@
+// test_view.cpp — `palpate view` end to end under a virtual X server (xvfb-run) with Mesa's
+// software OpenGL: it opens, draws the tissue where expected, takes screenshots, a scripted press
+// dents the tissue, shows the force arrow and reports the force, and it exits cleanly.
+#include <gtest/gtest.h>
+
+#include "png_read.h"
+
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Ran {
+  int code = -1;
+  std::string out;  // stdout and stderr together
+};
+
+Ran run(const std::string& cmd) {
+  Ran r;
+  FILE* p = popen((cmd + " 2>&1 </dev/null").c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf{};
+  size_t n = 0;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+bool have_xvfb() { return std::system("command -v xvfb-run >/dev/null 2>&1") == 0; }
+
+// The viewer under a private virtual X server with software GL (no GPU needed).
+Ran view(const std::string& args) {
+  return run("LIBGL_ALWAYS_SOFTWARE=1 xvfb-run -a -s '-screen 0 1024x768x24' " + std::string(PALPATE_CLI) +
+             " view " + args);
+}
+
+using palpate::test::load_png;
+using palpate::test::Png;
+
+// The viewer's background, (0.12, 0.13, 0.16) in 8 bits.
+bool is_background(const unsigned char* p) {
+  return std::abs(p[0] - 31) <= 2 && std::abs(p[1] - 33) <= 2 && std::abs(p[2] - 41) <= 2;
+}
+
+// Pixels of the force arrow's yellow (1, 0.8, 0.1), lit: strong red, little blue. Neither the
+// tissue's pink (blue ≈ 0.58 red), the steel tool nor the background come close.
+int yellow_pixels(const Png& png) {
+  int n = 0;
+  for (int y = 0; y < png.height; ++y)
+    for (int x = 0; x < png.width; ++x) {
+      const unsigned char* p = png.at(x, y);
+      n += p[0] > 100 && p[1] > 0.6 * p[0] && p[2] < 0.3 * p[0];
+    }
+  return n;
+}
+
+double number_after(const std::string& text, const std::string& key) {
+  const size_t at = text.find(key);
+  if (at == std::string::npos) return std::nan("");
+  return std::strtod(text.c_str() + at + key.size(), nullptr);
+}
+
+// A 40 x 40 mm mass-spring sheet (2 mm spacing, 21 x 21 vertices) at y = 0, its border anchored,
+// no gravity (so it stays still until pressed), a 3 mm sphere probe parked 10 mm above its centre,
+// and a camera looking down at it from the front. Written into `dir` so outputs stay there.
+fs::path write_sheet_scene(const fs::path& dir) {
+  std::string anchors;
+  for (int j = 0; j < 21; ++j)
+    for (int i = 0; i < 21; ++i)
+      if (i == 0 || j == 0 || i == 20 || j == 20) anchors += (anchors.empty() ? "" : ", ") + std::to_string(i + 21 * j);
+  const fs::path file = dir / "sheet.yaml";
+  std::ofstream(file) << "name: view-sheet\nduration: 1\ndt: 0.001\noutput: out\n"
+                         "tool: {kind: sphere, radius: 0.003}\n"
+                         "device:\n  kind: scripted\n  waypoints:\n    - {t: 0, position: [0, 0.01, 0]}\n"
+                         "camera: {position: [0, 0.05, 0.045], target: [0, 0, 0], fov: 40, width: 400, height: 300}\n"
+                         "tissues:\n  - name: sheet\n    model: mass_spring\n"
+                         "    patch: {shape: flat, width: 0.04, height: 0.04, spacing: 0.002}\n"
+                         "    material: {topology: edges, solver: desbrun, stiffness: 200, gravity: false}\n"
+                         "    anchors: ["
+                      << anchors << "]\n";
+  return file;
+}
+
+class View : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is missing: scripts/install-deps installs it (package xvfb)";
+    dir_ = fs::path(::testing::TempDir()) / ("palpate_view_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    scene_ = write_sheet_scene(dir_);
+  }
+  void TearDown() override {
+    if (!dir_.empty()) fs::remove_all(dir_);
+  }
+  fs::path dir_, scene_;
+};
+
+TEST_F(View, RendersTheTissueTakesScreenshotsAndAScriptedPressDentsItWithAForce) {
+  // Unpressed: the tool parked above the sheet.
+  const fs::path rest = dir_ / "rest.png";
+  Ran a = view(scene_.string() + " --frames 5 --exit --no-panels --screenshot " + rest.string());
+  ASSERT_EQ(a.code, 0) << a.out;
+  EXPECT_NE(a.out.find("frames: 5"), std::string::npos) << a.out;
+  EXPECT_NEAR(number_after(a.out, "force_N:"), 0.0, 1e-9) << a.out;  // nothing touches the sheet
+  const Png r = load_png(rest);
+  ASSERT_EQ(r.width, 400) << a.out;
+  ASSERT_EQ(r.height, 300);
+  // The background shows at the corners, the sheet covers the middle.
+  for (auto [x, y] : {std::pair{2, 2}, {397, 2}, {2, 297}, {397, 297}}) EXPECT_TRUE(is_background(r.at(x, y))) << x << "," << y;
+  int covered = 0, total = 0;
+  for (int y = 120; y < 200; ++y)
+    for (int x = 150; x < 250; ++x, ++total) covered += !is_background(r.at(x, y));
+  EXPECT_GT(covered, 0.95 * total);
+  EXPECT_LT(yellow_pixels(r), 5);  // no force, no arrow
+
+  // Pressed: the scripted probe at the window's centre, its centre 2 mm under the surface.
+  const fs::path pressed = dir_ / "pressed.png";
+  Ran b = view(scene_.string() + " --frames 5 --exit --no-panels --probe 200,150,0.002 --overrun-margin 0.05 "
+               "--screenshot " + pressed.string());
+  ASSERT_EQ(b.code, 0) << b.out;
+  const double force = number_after(b.out, "force_N:");
+  EXPECT_GT(force, 0.02) << b.out;
+  EXPECT_LT(force, 3.3 + 1e-9) << b.out;  // never past the device's limit
+  // The sheet pushes the probe back up, out of the surface.
+  const size_t at = b.out.find("force: ");
+  ASSERT_NE(at, std::string::npos) << b.out;
+  double fx = 0, fy = 0, fz = 0;
+  ASSERT_EQ(std::sscanf(b.out.c_str() + at, "force: %lf %lf %lf", &fx, &fy, &fz), 3);
+  EXPECT_GT(fy, 0.8 * force) << b.out;
+  const Png p = load_png(pressed);
+  ASSERT_EQ(p.width, 400) << b.out;
+  for (auto [x, y] : {std::pair{2, 2}, {397, 2}, {2, 297}, {397, 297}}) EXPECT_TRUE(is_background(p.at(x, y)));
+  // Around the press the picture changed (dent, tool, arrow); the arrow is there.
+  int changed = 0;
+  for (int y = 90; y < 210; ++y)
+    for (int x = 140; x < 260; ++x) {
+      const unsigned char *u = r.at(x, y), *v = p.at(x, y);
+      changed += std::abs(u[0] - v[0]) + std::abs(u[1] - v[1]) + std::abs(u[2] - v[2]) > 30;
+    }
+  EXPECT_GT(changed, 300);
+  EXPECT_GT(yellow_pixels(p), 20);
+  // Written atomically: no temporary left beside the screenshots.
+  for (const auto& e : fs::directory_iterator(dir_)) EXPECT_NE(e.path().extension(), ".part") << e.path();
+}
+
+TEST_F(View, AProbeOffTheTissueIsAClearErrorNotAHang) {
+  Ran r = view(scene_.string() + " --frames 2 --exit --no-panels --probe 1,1,0.001");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("--probe 1,1: no tissue surface under that pixel of the 400x300 window"), std::string::npos) << r.out;
+}
+
+TEST_F(View, NoDisplayIsAClearErrorWithItsOwnExitCode) {
+  Ran r = run("env -u DISPLAY -u WAYLAND_DISPLAY " + std::string(PALPATE_CLI) + " view " + scene_.string() +
+              " --frames 1 --exit");
+  EXPECT_EQ(r.code, 3) << r.out;
+  EXPECT_NE(r.out.find("palpate view: cannot"), std::string::npos) << r.out;
+}
+
+}  // namespace
+
+TEST(ViewCli, BadProbeIsNamedAndHelpListsTheFlags) {
+  Ran r = run(std::string(PALPATE_CLI) + " view " + PALPATE_SOURCE_DIR "/data/scenes/liver-probe.yaml --probe 1,2 --exit");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--probe '1,2': expected x,y,depth"), std::string::npos) << r.out;
+  r = run(std::string(PALPATE_CLI) + " view --help");
+  EXPECT_EQ(r.code, 0);
+  for (const char* flag : {"--frames", "--exit", "--screenshot", "--probe", "--no-panels"})
+    EXPECT_NE(r.out.find(flag), std::string::npos) << flag;
+}

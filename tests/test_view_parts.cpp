@@ -1,0 +1,174 @@
+// test_view_parts.cpp — the viewer's GUI-free parts: the orbit camera's geometry, ray picking, and
+// SnapshotTissue's hand-over of positions from a stepping thread to a reading thread.
+#include <gtest/gtest.h>
+
+// The viewer lives in the app (it links GUI libraries the test binary must not); these two
+// source of it uses only palpate's public headers, so it is compiled in here.
+#include "../apps/palpate/view/camera.cpp"
+#include <palpate/snapshot_tissue.h>
+
+#include <atomic>
+#include <cmath>
+#include <thread>
+
+namespace {
+
+using palpate::CameraDef;
+using palpate::Vec3;
+using palpate::Vec3f;
+using palpate::view::OrbitCamera;
+
+CameraDef camera_def() {
+  CameraDef c;
+  c.position = Vec3(0.05, 0.03, 0.06);
+  c.target = Vec3(0.0, -0.006, 0.0);
+  c.fov = 40;
+  return c;
+}
+
+TEST(ViewCamera, StartsWhereTheSceneCameraIs) {
+  const OrbitCamera cam = OrbitCamera::from(camera_def());
+  EXPECT_LT((cam.eye() - camera_def().position).norm(), 1e-12);
+  EXPECT_LT((cam.forward() - (camera_def().target - camera_def().position).normalized()).norm(), 1e-12);
+  EXPECT_NEAR(cam.up().dot(cam.forward()), 0.0, 1e-12);
+  EXPECT_GT(cam.up().y(), 0.0);  // y is up on screen
+}
+
+TEST(ViewCamera, CentrePixelRayPointsAtTheTargetAndProjectionInvertsRays) {
+  const OrbitCamera cam = OrbitCamera::from(camera_def());
+  EXPECT_LT((cam.ray_direction(400, 300, 800, 600) - cam.forward()).norm(), 1e-12);
+  for (const auto& px : {Eigen::Vector2d(10, 20), Eigen::Vector2d(700, 590), Eigen::Vector2d(400, 77)}) {
+    const Vec3 p = cam.eye() + 0.08 * cam.ray_direction(px.x(), px.y(), 800, 600);
+    const auto back = cam.project(p, 800, 600);
+    ASSERT_TRUE(back.has_value());
+    EXPECT_LT((*back - px).norm(), 1e-9);
+  }
+  EXPECT_FALSE(cam.project(cam.eye() - cam.forward(), 800, 600).has_value());  // behind the eye
+}
+
+TEST(ViewCamera, MatricesAgreeWithTheRayProjection) {
+  const OrbitCamera cam = OrbitCamera::from(camera_def());
+  const Eigen::Matrix4f pv = cam.projection_matrix(800.0 / 600.0) * cam.view_matrix();
+  const Vec3 p(0.01, -0.004, 0.007);
+  const Eigen::Vector4f clip = pv * Eigen::Vector4f(0.01f, -0.004f, 0.007f, 1.0f);
+  const double x = (clip.x() / clip.w() + 1) * 400, y = (1 - clip.y() / clip.w()) * 300;
+  const auto px = cam.project(p, 800, 600);
+  ASSERT_TRUE(px.has_value());
+  EXPECT_NEAR(x, px->x(), 1e-3);
+  EXPECT_NEAR(y, px->y(), 1e-3);
+  EXPECT_GT(clip.z() / clip.w(), -1.0f);  // inside the depth range
+  EXPECT_LT(clip.z() / clip.w(), 1.0f);
+}
+
+TEST(ViewCamera, OrbitKeepsDistancePanMovesEyeAndTargetTogetherZoomApproaches) {
+  OrbitCamera cam = OrbitCamera::from(camera_def());
+  const double d = (cam.eye() - cam.target).norm();
+  cam.orbit(120, -45);
+  EXPECT_NEAR((cam.eye() - cam.target).norm(), d, 1e-12);
+  cam.orbit(0, 1e6);  // never flips over the pole
+  EXPECT_LT(cam.pitch, std::numbers::pi / 2);
+  EXPECT_TRUE(cam.eye().allFinite());
+  const Vec3 eye = cam.eye(), target = cam.target;
+  cam.pan(30, -10, 600);
+  EXPECT_LT(((cam.eye() - eye) - (cam.target - target)).norm(), 1e-12);
+  EXPECT_GT((cam.target - target).norm(), 0.0);
+  cam.zoom(2);
+  EXPECT_NEAR(cam.distance, d * 0.81, 1e-12);
+}
+
+TEST(ViewPick, HitsTheNearestTriangleAndMissesOutside) {
+  // Two unit right triangles facing +y, at y = 0 and y = -1.
+  const std::vector<float> positions = {0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -1, 0, 1, -1, 0, 0, -1, 1};
+  const std::vector<std::uint32_t> triangles = {3, 4, 5, 0, 1, 2};
+  const auto hit = palpate::view::pick(Vec3(0.2, 2, 0.2), Vec3(0, -1, 0), positions, triangles);
+  ASSERT_TRUE(hit.has_value());
+  EXPECT_NEAR(*hit, 2.0, 1e-12);
+  EXPECT_FALSE(palpate::view::pick(Vec3(0.8, 2, 0.8), Vec3(0, -1, 0), positions, triangles));  // u + v > 1
+  EXPECT_FALSE(palpate::view::pick(Vec3(0.2, 2, 0.2), Vec3(0, 1, 0), positions, triangles));   // pointing away
+  const std::vector<std::uint32_t> bad = {0, 1, 99};  // an index out of range is skipped, not read
+  EXPECT_FALSE(palpate::view::pick(Vec3(0.2, 2, 0.2), Vec3(0, -1, 0), positions, bad));
+}
+
+// A tissue whose every point holds the number of steps taken: a torn copy (points from two
+// different steps) shows as unequal values.
+class CountingTissue final : public palpate::Tissue {
+ public:
+  explicit CountingTissue(size_t n) : points_(n, 0.0f) {}
+  const std::string& name() const override { return name_; }
+  palpate::Vec3 step(const palpate::ToolState&, double) noexcept override {
+    ++steps_;
+    for (float& p : points_) p = static_cast<float>(steps_);
+    return palpate::Vec3(0, 1, 0);
+  }
+  std::span<const std::string> figure_names() const override { return {}; }
+  void figures(std::span<double>) const noexcept override {}
+  size_t drain_events(std::span<palpate::TissueEvent>) noexcept override { return 0; }
+  void snapshot(palpate::TissueSnapshot& snap) const override {
+    snap.points.resize(points_.size());
+    for (size_t i = 0; i < points_.size(); ++i) snap.points[i] = Vec3f(points_[i], points_[i], points_[i]);
+    snap.rows_cols = {static_cast<int>(points_.size()), 1};
+    snap.links.clear();
+    for (int i = 0; i + 1 < static_cast<int>(points_.size()); ++i) snap.links.push_back({i, i + 1});
+  }
+  void reset() noexcept override {
+    steps_ = 0;
+    for (float& p : points_) p = 0;
+  }
+
+ private:
+  std::string name_ = "counting";
+  std::vector<float> points_;
+  int steps_ = 0;
+};
+
+TEST(ViewSnapshot, StartsAtRestAndForwardsTheStep) {
+  palpate::SnapshotTissue t(std::make_unique<CountingTissue>(10));
+  bool fresh = true;
+  const palpate::TissueSnapshot& s = t.latest(&fresh);
+  EXPECT_FALSE(fresh);
+  ASSERT_EQ(s.points.size(), 10u);
+  EXPECT_EQ(s.points[3].x(), 0.0f);
+  EXPECT_EQ(t.name(), "counting");
+  EXPECT_EQ(t.step({}, 0.001), palpate::Vec3(0, 1, 0));
+  // The first step answers the request made at construction.
+  EXPECT_EQ(t.latest(&fresh).points[9].x(), 1.0f);
+  EXPECT_TRUE(fresh);
+  // No new request: further steps publish nothing, the reader keeps its copy.
+  t.step({}, 0.001);
+  EXPECT_EQ(t.latest(&fresh).points[9].x(), 1.0f);
+  EXPECT_FALSE(fresh);
+  t.request();
+  t.step({}, 0.001);
+  EXPECT_EQ(t.latest().points[0].x(), 3.0f);
+  EXPECT_EQ(t.published(), 2u);
+}
+
+TEST(ViewSnapshot, ReaderNeverSeesATornCopyAndSteadyStateNeverGrowsArrays) {
+  palpate::SnapshotTissue t(std::make_unique<CountingTissue>(2000));
+  std::atomic<bool> stop{false};
+  std::thread stepper([&] {
+    while (!stop) t.step({}, 0.001);
+  });
+  // Read 200 fresh copies while the other thread steps as fast as it can.
+  int torn = 0, seen = 0;
+  float last = 0;
+  bool backwards = false;
+  while (seen < 200) {
+    t.request();
+    bool fresh = false;
+    const palpate::TissueSnapshot& s = t.latest(&fresh);
+    if (!fresh) continue;
+    ++seen;
+    const float v = s.points.front().x();
+    for (const Vec3f& p : s.points) torn += p.x() != v;
+    backwards = backwards || v < last;
+    last = v;
+  }
+  stop = true;
+  stepper.join();
+  EXPECT_EQ(torn, 0);
+  EXPECT_FALSE(backwards);  // copies arrive in step order
+  EXPECT_EQ(t.capacity_growths(), 0u);
+}
+
+}  // namespace
