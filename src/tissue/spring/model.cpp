@@ -7,6 +7,7 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
+#include "tissue/spring/forces.h"
 #include "tissue/spring/ordering.h"
 #include "tissue/spring/solve.h"
 
@@ -238,6 +239,8 @@ SpringState make_state(const SpringModel& model) {
   size_t soa = model.all_pairs ? static_cast<size_t>(n) * 10 : 0;
   if (model.predictor.kind == SpringSolver::desbrun) soa = std::max(soa, static_cast<size_t>(n) * 3);
   if (!model.supernodes.empty()) soa = std::max(soa, spring::supernodal_scratch(model.predictor, model.supernodes));
+  if (!model.all_pairs && model.predictor.kind != SpringSolver::exact)
+    soa = std::max(soa, spring::spring_pass_scratch(model));
   s.soa.assign(soa, 0.0);
   s.soa_single.assign(model.rest_length_single.empty() ? 0 : static_cast<size_t>(n) * 9, 0.0f);
   return s;

@@ -3,6 +3,7 @@
 // and the exact backward-Euler reference (Newton).
 #include <palpate/spring.h>
 
+#include "tissue/spring/forces.h"
 #include "tissue/spring/solve.h"
 
 #include <Eigen/SparseCholesky>
@@ -11,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 
 #include <immintrin.h>
@@ -37,33 +39,6 @@ void add_spring_forces(const SpringNetwork& net, const RowMat3d& x, const RowMat
     const double g = (net.stiffness[e] * (l - net.rest_length[e]) + net.damping[e] * dvu) * inv_l;
     f(i, 0) += g * dx; f(i, 1) += g * dy; f(i, 2) += g * dz;
     f(j, 0) -= g * dx; f(j, 1) -= g * dy; f(j, 2) -= g * dz;
-  }
-}
-
-// The predictor's spring pass: the forces of add_spring_forces into f, and in the same pass over
-// the springs the right-hand side's −h K_L v term into r: r_i −= h k_e (v_i − v_j), r_j += the same.
-// x, v, f, r are (n x 3).
-void add_spring_forces_and_stiffness_term(const SpringNetwork& net, double h, const RowMat3d& x, const RowMat3d& v,
-                                          RowMat3d& f, RowMat3d& r) noexcept {
-  const size_t s = net.springs.size();
-  const double* xd = x.data();
-  const double* vd = v.data();
-  double* fd = f.data();
-  double* rd = r.data();
-  for (size_t e = 0; e < s; ++e) {
-    const size_t i = 3 * static_cast<size_t>(net.springs[e][0]), j = 3 * static_cast<size_t>(net.springs[e][1]);
-    const double dx = xd[j] - xd[i], dy = xd[j + 1] - xd[i + 1], dz = xd[j + 2] - xd[i + 2];
-    const double wx = vd[j] - vd[i], wy = vd[j + 1] - vd[i + 1], wz = vd[j + 2] - vd[i + 2];
-    const double kh = h * net.stiffness[e];
-    rd[i] += kh * wx; rd[i + 1] += kh * wy; rd[i + 2] += kh * wz;
-    rd[j] -= kh * wx; rd[j + 1] -= kh * wy; rd[j + 2] -= kh * wz;
-    const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
-    if (!(l > 0)) continue;
-    const double inv_l = 1.0 / l;
-    const double dvu = (wx * dx + wy * dy + wz * dz) * inv_l;
-    const double g = (net.stiffness[e] * (l - net.rest_length[e]) + net.damping[e] * dvu) * inv_l;
-    fd[i] += g * dx; fd[i + 1] += g * dy; fd[i + 2] += g * dz;
-    fd[j] -= g * dx; fd[j + 1] -= g * dy; fd[j + 2] -= g * dz;
   }
 }
 
@@ -216,10 +191,7 @@ __attribute__((target("avx2,fma"))) void all_pairs_avx2_single(int n, const floa
   }
 }
 
-bool has_avx2_fma() noexcept {
-  static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return yes;
-}
+using spring::has_avx2_fma;
 
 void all_pairs_rows(const SpringNetwork& net, bool uniform, double* p) noexcept {
   const int n = static_cast<int>(net.size());
@@ -406,7 +378,7 @@ void all_forces(const SpringModel& model, SpringState& s, const ToolState* tool,
   s.force = s.work;
   if (stiffness_term && !model.all_pairs) {
     s.rhs.setZero();
-    add_spring_forces_and_stiffness_term(model.network, model.options.dt, s.x, s.v, s.force, s.rhs);
+    spring::add_spring_forces_and_stiffness_term(model, s.x, s.v, s.force, s.rhs, s.soa.data(), true);
     s.anchor_force = anchor_load(model, s.force);
     return;
   }
@@ -593,3 +565,139 @@ double max_displacement(const SpringModel& model, const SpringState& s) noexcept
 }
 
 }  // namespace palpate
+
+namespace palpate::spring {
+
+bool has_avx2_fma() noexcept {
+  static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return yes;
+}
+
+size_t spring_pass_scratch(const SpringModel& model) { return 16 * model.network.size() + 3; }
+
+namespace {
+
+// The scalar pass (forces.h). x, v, f, r are (n x 3) row-major.
+void spring_pass_scalar(const SpringNetwork& net, double h, const double* xd, const double* vd, double* fd,
+                        double* rd) noexcept {
+  const size_t s = net.springs.size();
+  for (size_t e = 0; e < s; ++e) {
+    const size_t i = 3 * static_cast<size_t>(net.springs[e][0]), j = 3 * static_cast<size_t>(net.springs[e][1]);
+    const double dx = xd[j] - xd[i], dy = xd[j + 1] - xd[i + 1], dz = xd[j + 2] - xd[i + 2];
+    const double wx = vd[j] - vd[i], wy = vd[j + 1] - vd[i + 1], wz = vd[j + 2] - vd[i + 2];
+    const double kh = h * net.stiffness[e];
+    rd[i] += kh * wx; rd[i + 1] += kh * wy; rd[i + 2] += kh * wz;
+    rd[j] -= kh * wx; rd[j + 1] -= kh * wy; rd[j + 2] -= kh * wz;
+    const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
+    if (!(l > 0)) continue;
+    const double inv_l = 1.0 / l;
+    const double dvu = (wx * dx + wy * dy + wz * dz) * inv_l;
+    const double g = (net.stiffness[e] * (l - net.rest_length[e]) + net.damping[e] * dvu) * inv_l;
+    fd[i] += g * dx; fd[i + 1] += g * dy; fd[i + 2] += g * dz;
+    fd[j] -= g * dx; fd[j + 1] -= g * dy; fd[j + 2] -= g * dz;
+  }
+}
+
+// (Σ a0, Σ a1, Σ a2, Σ a3): the four horizontal sums in one register.
+__attribute__((target("avx2,fma"), always_inline)) inline __m256d hsum4(__m256d a0, __m256d a1, __m256d a2,
+                                                                         __m256d a3) noexcept {
+  const __m256d t0 = _mm256_hadd_pd(a0, a1);  // a0[0]+a0[1], a1[0]+a1[1], a0[2]+a0[3], a1[2]+a1[3]
+  const __m256d t1 = _mm256_hadd_pd(a2, a3);
+  return _mm256_add_pd(_mm256_permute2f128_pd(t0, t1, 0x20), _mm256_permute2f128_pd(t0, t1, 0x31));
+}
+
+// The AVX2 pass, four springs at a time. x4, v4, f4, r4 are (4n): a vertex's x, y, z and a zero
+// (so each vertex is one aligned 256-bit load or store and no lane is masked); the springs' sums
+// go to f4, r4 one vertex at a time in spring order, so springs sharing a vertex in a group of
+// four are summed like the scalar loop's.
+__attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& net, double h, const double* x4,
+                                                           const double* v4, double* f4, double* r4) noexcept {
+  const size_t s = net.springs.size();
+  const int* ends = &net.springs[0][0];  // (2s) i, j of each spring
+  const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
+  const __m256d hv = _mm256_set1_pd(h), zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
+  size_t e = 0;
+  for (; e + 4 <= s; e += 4) {
+    size_t a[4], b[4];
+    __m256d d[4], w[4];
+    for (int q = 0; q < 4; ++q) {
+      a[q] = 4 * static_cast<size_t>(ends[2 * (e + q)]);
+      b[q] = 4 * static_cast<size_t>(ends[2 * (e + q) + 1]);
+      d[q] = _mm256_sub_pd(_mm256_load_pd(x4 + b[q]), _mm256_load_pd(x4 + a[q]));
+      w[q] = _mm256_sub_pd(_mm256_load_pd(v4 + b[q]), _mm256_load_pd(v4 + a[q]));
+    }
+    const __m256d l2 = hsum4(_mm256_mul_pd(d[0], d[0]), _mm256_mul_pd(d[1], d[1]), _mm256_mul_pd(d[2], d[2]),
+                             _mm256_mul_pd(d[3], d[3]));
+    const __m256d dw = hsum4(_mm256_mul_pd(d[0], w[0]), _mm256_mul_pd(d[1], w[1]), _mm256_mul_pd(d[2], w[2]),
+                             _mm256_mul_pd(d[3], w[3]));
+    const __m256d l = _mm256_sqrt_pd(l2);
+    const __m256d ok = _mm256_cmp_pd(l, zero, _CMP_GT_OQ);  // l > 0 (false for NaN), as the scalar loop
+    const __m256d inv_l = _mm256_div_pd(one, l);
+    const __m256d k = _mm256_loadu_pd(K + e);
+    const __m256d dvu = _mm256_mul_pd(dw, inv_l);
+    __m256d g = _mm256_add_pd(_mm256_mul_pd(k, _mm256_sub_pd(l, _mm256_loadu_pd(L + e))),
+                              _mm256_mul_pd(_mm256_loadu_pd(C + e), dvu));
+    g = _mm256_and_pd(_mm256_mul_pd(g, inv_l), ok);
+    const __m256d kh = _mm256_mul_pd(hv, k);
+    const __m256d gq[4] = {_mm256_permute4x64_pd(g, 0x00), _mm256_permute4x64_pd(g, 0x55),
+                           _mm256_permute4x64_pd(g, 0xAA), _mm256_permute4x64_pd(g, 0xFF)};
+    const __m256d kq[4] = {_mm256_permute4x64_pd(kh, 0x00), _mm256_permute4x64_pd(kh, 0x55),
+                           _mm256_permute4x64_pd(kh, 0xAA), _mm256_permute4x64_pd(kh, 0xFF)};
+    for (int q = 0; q < 4; ++q) {
+      const __m256d fd = _mm256_mul_pd(gq[q], d[q]);
+      const __m256d rw = _mm256_mul_pd(kq[q], w[q]);
+      _mm256_store_pd(r4 + a[q], _mm256_add_pd(_mm256_load_pd(r4 + a[q]), rw));
+      _mm256_store_pd(r4 + b[q], _mm256_sub_pd(_mm256_load_pd(r4 + b[q]), rw));
+      _mm256_store_pd(f4 + a[q], _mm256_add_pd(_mm256_load_pd(f4 + a[q]), fd));
+      _mm256_store_pd(f4 + b[q], _mm256_sub_pd(_mm256_load_pd(f4 + b[q]), fd));
+    }
+  }
+  for (; e < s; ++e) {  // the last s mod 4 springs
+    const size_t i = 4 * static_cast<size_t>(ends[2 * e]), j = 4 * static_cast<size_t>(ends[2 * e + 1]);
+    const double dx = x4[j] - x4[i], dy = x4[j + 1] - x4[i + 1], dz = x4[j + 2] - x4[i + 2];
+    const double wx = v4[j] - v4[i], wy = v4[j + 1] - v4[i + 1], wz = v4[j + 2] - v4[i + 2];
+    const double kh = h * K[e];
+    r4[i] += kh * wx; r4[i + 1] += kh * wy; r4[i + 2] += kh * wz;
+    r4[j] -= kh * wx; r4[j + 1] -= kh * wy; r4[j + 2] -= kh * wz;
+    const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
+    if (!(l > 0)) continue;
+    const double inv_l = 1.0 / l;
+    const double g = (K[e] * (l - L[e]) + C[e] * (wx * dx + wy * dy + wz * dz) * inv_l) * inv_l;
+    f4[i] += g * dx; f4[i + 1] += g * dy; f4[i + 2] += g * dz;
+    f4[j] -= g * dx; f4[j + 1] -= g * dy; f4[j + 2] -= g * dz;
+  }
+}
+
+}  // namespace
+
+void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat3d& x, const RowMat3d& v,
+                                          RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised) noexcept {
+  const SpringNetwork& net = model.network;
+  const double h = model.options.dt;
+  const size_t n = net.size();
+  if (!vectorised || !has_avx2_fma() || net.springs.empty() || scratch == nullptr) {
+    spring_pass_scalar(net, h, x.data(), v.data(), f.data(), r.data());
+    return;
+  }
+  // The padded copies start at the first 32-byte boundary in scratch (at most 3 doubles in).
+  const std::uintptr_t at = reinterpret_cast<std::uintptr_t>(scratch);
+  double* p = scratch + ((32 - at % 32) % 32) / sizeof(double);
+  double *x4 = p, *v4 = p + 4 * n, *f4 = p + 8 * n, *r4 = p + 12 * n;
+  const double* xd = x.data();
+  const double* vd = v.data();
+  for (size_t i = 0; i < n; ++i) {
+    x4[4 * i] = xd[3 * i]; x4[4 * i + 1] = xd[3 * i + 1]; x4[4 * i + 2] = xd[3 * i + 2]; x4[4 * i + 3] = 0;
+    v4[4 * i] = vd[3 * i]; v4[4 * i + 1] = vd[3 * i + 1]; v4[4 * i + 2] = vd[3 * i + 2]; v4[4 * i + 3] = 0;
+  }
+  std::fill(f4, f4 + 8 * n, 0.0);  // f4 and r4
+  spring_pass_avx2(net, h, x4, v4, f4, r4);
+  double* fd = f.data();
+  double* rd = r.data();
+  for (size_t i = 0; i < n; ++i)
+    for (size_t c = 0; c < 3; ++c) {
+      fd[3 * i + c] += f4[4 * i + c];
+      rd[3 * i + c] += r4[4 * i + c];
+    }
+}
+
+}  // namespace palpate::spring

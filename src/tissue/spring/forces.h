@@ -1,0 +1,26 @@
+// forces.h — the predictor's spring pass for generic (not all-pairs) networks, in its scalar
+// reference and AVX2 forms (internal; implemented in step.cpp, used by the step and the tests).
+#pragma once
+
+#include <palpate/spring.h>
+
+namespace palpate::spring {
+
+// Hooke-plus-damper spring forces added to f, and in the same pass over the springs the predictor
+// right-hand side's −h K_L v term added to r (DS99 §4.2):
+//   f_i += [k_e (l − L_e) + c_e (v_j − v_i)·u] u,  f_j −= the same,  u = (x_j − x_i)/l (none when l = 0),
+//   r_i += h k_e (v_j − v_i),  r_j −= the same.
+// x, v, f, r are (n x 3). vectorised: four springs at a time with AVX2 on padded copies of x, v
+// (scratch: spring_pass_scratch() doubles); the scalar loop otherwise or without AVX2 + FMA.
+// Both take the same square root and division, so they agree to round-off (fused multiply-adds).
+void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat3d& x, const RowMat3d& v,
+                                          RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised) noexcept;
+
+// Doubles of scratch the vectorised pass needs: (16n + 3), x, v, f and r with four doubles per vertex
+// from the first 32-byte boundary on (scratch is only 8-byte aligned).
+size_t spring_pass_scratch(const SpringModel& model);
+
+// Whether this processor runs the AVX2 + FMA kernels (the vectorised pass falls back otherwise).
+bool has_avx2_fma() noexcept;
+
+}  // namespace palpate::spring
