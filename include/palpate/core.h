@@ -4,7 +4,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <filesystem>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <variant>
 
@@ -54,6 +56,13 @@ class [[nodiscard]] Status {
   Error error_;
   bool ok_ = true;
 };
+
+// Write `bytes` to `file` atomically: to a temporary file beside it (unique per process and call),
+// flushed to disk, then renamed over `file`, so a reader never sees half a file and an
+// interrupted write leaves the old one. `create_directories`: make missing parent directories.
+// Errors name the file and the reason.
+Status write_file_atomic(const std::filesystem::path& file, std::string_view bytes,
+                         bool create_directories = true);
 
 // The library's version, "MAJOR.MINOR.PATCH".
 const char* version();

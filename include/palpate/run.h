@@ -73,7 +73,5 @@ class Tissue;
 Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<Tissue>> tissues,
                              const RunOptions& options = {});
 
-// Write `text` to `file` atomically: a temporary file in the same directory, then rename.
-Status write_file_atomic(const std::filesystem::path& file, const std::string& text);
 
 }  // namespace palpate

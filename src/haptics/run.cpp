@@ -25,32 +25,6 @@
 
 namespace palpate {
 
-Status write_file_atomic(const std::filesystem::path& file, const std::string& text) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (file.has_parent_path()) fs::create_directories(file.parent_path(), ec);
-  if (ec) return Error{file.parent_path().string() + ": cannot create directory: " + ec.message()};
-  const fs::path tmp = fs::path(file.string() + ".tmp." + std::to_string(::getpid()));
-  {
-    std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) return Error{tmp.string() + ": cannot open for writing"};
-    const size_t written = std::fwrite(text.data(), 1, text.size(), f);
-    const bool flushed = std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0;
-    const bool closed = std::fclose(f) == 0;
-    if (written != text.size() || !flushed || !closed) {
-      fs::remove(tmp, ec);
-      return Error{file.string() + ": write failed (disk full?)"};
-    }
-  }
-  fs::rename(tmp, file, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    return Error{file.string() + ": cannot move the finished file into place: " + ec.message()};
-  }
-  return {};
-}
-
-
 Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options) {
   std::vector<std::unique_ptr<Tissue>> tissues;
   for (int i = 0; i < static_cast<int>(scene.tissues.size()); ++i) {

@@ -1,4 +1,6 @@
 // test_cli.cpp — the palpate command as a user meets it: --version, --help, exit codes, errors.
+#include "shell_run.h"
+
 #include <gtest/gtest.h>
 
 #include <array>
@@ -10,23 +12,10 @@
 
 namespace {
 
-struct Ran {
-  int code = -1;
-  std::string out;  // stdout and stderr together
-};
+using palpate::test::Ran;
 
-Ran run(const std::string& args) {
-  Ran r;
-  const std::string cmd = std::string(PALPATE_CLI) + " " + args + " 2>&1 </dev/null";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf{};
-  size_t n = 0;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+// The palpate command with these arguments.
+Ran run(const std::string& args) { return palpate::test::shell_run(std::string(PALPATE_CLI) + " " + args); }
 
 }  // namespace
 

@@ -13,8 +13,8 @@ namespace palpate::view {
 // to top) into RGBA rows top to bottom. Needs the GL context current.
 std::vector<std::uint8_t> read_framebuffer(int width, int height);
 
-// Write RGBA rows (top to bottom) as a PNG: to `<file>.part` beside it, renamed over `file` when
-// complete, so a reader never sees half an image. Errors name the file and the reason.
+// Write RGBA rows (top to bottom) as a PNG: to a temporary file beside it, renamed over `file` when
+// complete, so a reader never sees half an image (palpate::write_png). Errors name the file and the reason.
 Status write_png_atomic(const std::filesystem::path& file, int width, int height,
                         const std::vector<std::uint8_t>& rgba);
 

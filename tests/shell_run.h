@@ -1,0 +1,30 @@
+// shell_run.h — tests that run a command line (the palpate CLI, xvfb-run, ...) and look at what it
+// printed and how it exited.
+#pragma once
+
+#include <array>
+#include <cstdio>
+#include <string>
+#include <sys/wait.h>
+
+namespace palpate::test {
+
+struct Ran {
+  int code = -1;    // exit status; -1 when it did not exit normally or could not start
+  std::string out;  // stdout and stderr together
+};
+
+// Run `command` with /bin/sh, stdin from /dev/null.
+inline Ran shell_run(const std::string& command) {
+  Ran r;
+  FILE* p = popen((command + " 2>&1 </dev/null").c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf{};
+  size_t n = 0;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+}  // namespace palpate::test
