@@ -568,10 +568,9 @@ double max_displacement(const SpringModel& model, const SpringState& s) noexcept
 
 namespace palpate::spring {
 
-bool has_avx2_fma() noexcept {
-  static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return yes;
-}
+// No function-local static: its first call would take the initialisation guard (a lock) on the
+// haptic thread. libgcc fills the CPU model when it loads, so reading it is a few loads.
+bool has_avx2_fma() noexcept { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"); }
 
 size_t spring_pass_scratch(const SpringModel& model) { return 16 * model.network.size() + 3; }
 
