@@ -612,7 +612,6 @@ __attribute__((target("avx2,fma"), always_inline)) inline __m256d hsum4(__m256d 
 __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& net, double h, const double* x4,
                                                            const double* v4, double* f4, double* r4) noexcept {
   const size_t s = net.springs.size();
-  const int* ends = &net.springs[0][0];  // (2s) i, j of each spring
   const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
   const __m256d hv = _mm256_set1_pd(h), zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
   size_t e = 0;
@@ -620,8 +619,8 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
     size_t a[4], b[4];
     __m256d d[4], w[4];
     for (int q = 0; q < 4; ++q) {
-      a[q] = 4 * static_cast<size_t>(ends[2 * (e + q)]);
-      b[q] = 4 * static_cast<size_t>(ends[2 * (e + q) + 1]);
+      a[q] = 4 * static_cast<size_t>(net.springs[e + q][0]);
+      b[q] = 4 * static_cast<size_t>(net.springs[e + q][1]);
       d[q] = _mm256_sub_pd(_mm256_load_pd(x4 + b[q]), _mm256_load_pd(x4 + a[q]));
       w[q] = _mm256_sub_pd(_mm256_load_pd(v4 + b[q]), _mm256_load_pd(v4 + a[q]));
     }
@@ -652,7 +651,7 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
     }
   }
   for (; e < s; ++e) {  // the last s mod 4 springs
-    const size_t i = 4 * static_cast<size_t>(ends[2 * e]), j = 4 * static_cast<size_t>(ends[2 * e + 1]);
+    const size_t i = 4 * static_cast<size_t>(net.springs[e][0]), j = 4 * static_cast<size_t>(net.springs[e][1]);
     const double dx = x4[j] - x4[i], dy = x4[j + 1] - x4[i + 1], dz = x4[j + 2] - x4[i + 2];
     const double wx = v4[j] - v4[i], wy = v4[j + 1] - v4[i + 1], wz = v4[j + 2] - v4[i + 2];
     const double kh = h * K[e];
