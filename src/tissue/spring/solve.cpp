@@ -256,15 +256,16 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
     const size_t w = static_cast<size_t>(e - f0);
     for (int q = sn.row_start[k]; q < sn.row_start[k + 1]; ++q) position[static_cast<size_t>(sn.rows[static_cast<size_t>(q)])] = q - sn.row_start[k];
     const size_t rcount = static_cast<size_t>(sn.row_start[k + 1] - sn.row_start[k]);
-    double* V = sn.values.data() + sn.value_start[k];
     for (int c = f0; c < e; ++c) {
       const size_t i = static_cast<size_t>(c - f0);
-      // Column i covers block rows i + 1 … w − 1 and then the rows below, in that order.
-      double* col = V + column_offset(i, w, rcount) - (i + 1);
+      // Column i covers block rows i + 1 … w − 1 and then the rows below, in that order; block row
+      // `at` (> i: L is strictly lower) is its entry at − (i + 1). Indices, not pointers: a block
+      // may hold no values at all (then values.data() may be null).
+      const size_t col = sn.value_start[k] + column_offset(i, w, rcount);
       for (int q = cs[c]; q < cs[c + 1]; ++q) {
         const int r = rw[q];
         const size_t at = r < e ? static_cast<size_t>(r - f0) : w + static_cast<size_t>(position[static_cast<size_t>(r)]);
-        col[at] = p.value[static_cast<size_t>(q)];
+        sn.values[col + at - (i + 1)] = p.value[static_cast<size_t>(q)];
       }
     }
   }
