@@ -13,8 +13,12 @@ file(GLOB_RECURSE internal ${WORK_DIR}/prefix/include/*/factory.h)
 if(internal)
   message(FATAL_ERROR "internal headers were installed: ${internal}")
 endif()
+set(sanitize_flags)
+if(EMBED_SANITIZE)
+  set(sanitize_flags -DCMAKE_CXX_FLAGS=-fsanitize=${EMBED_SANITIZE} -DCMAKE_EXE_LINKER_FLAGS=-fsanitize=${EMBED_SANITIZE})
+endif()
 execute_process(COMMAND ${CMAKE_COMMAND} -S ${EMBED_SOURCE_DIR} -B ${WORK_DIR}/build
-                -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix -DCMAKE_BUILD_TYPE=Release
+                -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix -DCMAKE_BUILD_TYPE=Release ${sanitize_flags}
                 RESULT_VARIABLE rc)
 if(rc)
   message(FATAL_ERROR "configuring examples/embed against the installed palpate failed")

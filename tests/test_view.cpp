@@ -13,6 +13,7 @@
 #include <fstream>
 #include <string>
 #include <sys/wait.h>
+#include <unistd.h>
 
 namespace fs = std::filesystem;
 
@@ -23,10 +24,19 @@ Ran run(const std::string& cmd) { return palpate::test::shell_run(cmd); }
 
 bool have_xvfb() { return std::system("command -v xvfb-run >/dev/null 2>&1") == 0; }
 
-// The viewer under a private virtual X server with software GL (no GPU needed).
+// The viewer under a private virtual X server with software GL (no GPU needed). The X authority
+// file is ours (-f): without it xvfb-run makes and removes a temporary directory of its own, and
+// that clean-up fails now and then when tests run in parallel (exit 5 after a clean viewer run).
 Ran view(const std::string& args) {
-  return run("LIBGL_ALWAYS_SOFTWARE=1 xvfb-run -a -s '-screen 0 1024x768x24' " + std::string(PALPATE_CLI) +
-             " view " + args);
+  static int serial = 0;
+  const fs::path auth = fs::temp_directory_path() /
+                        ("palpate_test_view_" + std::to_string(::getpid()) + "_" + std::to_string(serial++) + ".xauth");
+  std::ofstream{auth};
+  Ran r = run("LIBGL_ALWAYS_SOFTWARE=1 xvfb-run -a -f '" + auth.string() + "' -s '-screen 0 1024x768x24' " +
+              std::string(PALPATE_CLI) + " view " + args);
+  std::error_code ec;
+  fs::remove(auth, ec);
+  return r;
 }
 
 using palpate::test::load_png;

@@ -60,6 +60,9 @@ class SnapshotTissue final : public Tissue {
   // Publish a copy now from the calling thread: only while nothing steps the tissue (before the
   // loop starts, after it stopped), e.g. after reset().
   void publish_now();
+  // The same, stamped with the last step (a frame of a run that has ended shows the tool and
+  // force of its last tick, not those of the last copy published while it ran). Same rule.
+  void publish_last_step();
 
   // Copies published by step() so far, and how many of them had to grow a slot's arrays.
   std::uint64_t published() const noexcept { return published_.load(std::memory_order_relaxed); }
@@ -78,6 +81,7 @@ class SnapshotTissue final : public Tissue {
   std::atomic<std::uint8_t> middle_{1};
   std::uint8_t back_ = 0;   // owned by the writer
   std::uint8_t front_ = 2;  // owned by the reader
+  SnapshotStamp last_step_; // owned by the stepping thread: the tool and force of its last step
   std::atomic<bool> wanted_{true};
   std::atomic<std::uint64_t> published_{0};
   std::atomic<std::uint64_t> growths_{0};

@@ -72,15 +72,19 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   std::vector<RunFrame> frames;
   std::string frame_error;
   std::vector<TissueSnapshot> frame_snaps(snaps.size());
-  // Draw frame k from the newest copies; `direct`: nothing steps the tissues now (headless), so a
-  // tissue that has not published since the request (a multi-rate one) is read directly.
+  // Draw frame k from the newest copies; `direct`: nothing steps the tissues now (headless, or the
+  // realtime loop has ended), so a tissue that has not published since the request (a multi-rate
+  // one, or every tissue once the loop stopped) is copied now, stamped with its last step.
   auto take_frame = [&](size_t k, bool direct) {
     SnapshotStamp tool;
     Vec3 force = Vec3::Zero();
     for (size_t i = 0; i < snaps.size(); ++i) {
       bool fresh = false;
       frame_snaps[i] = snaps[i]->latest(&fresh);
-      if (!fresh && direct) snaps[i]->snapshot(frame_snaps[i]);
+      if (!fresh && direct) {
+        snaps[i]->publish_last_step();
+        frame_snaps[i] = snaps[i]->latest();
+      }
       const SnapshotStamp& st = snaps[i]->current_stamp();
       force += st.force;
       if (st.stepped && (!tool.stepped || st.time > tool.time)) tool = st;

@@ -38,8 +38,9 @@ SnapshotTissue::~SnapshotTissue() = default;
 
 Vec3 SnapshotTissue::step(const ToolState& tool, double dt) noexcept {
   const Vec3 force = inner_->step(tool, dt);
+  last_step_ = {tool.time, tool.tip, force, true};
   if (wanted_.load(std::memory_order_relaxed) && wanted_.exchange(false, std::memory_order_acquire)) {
-    copy_into_back({tool.time, tool.tip, force, true});
+    copy_into_back(last_step_);
   }
   return force;
 }
@@ -74,6 +75,11 @@ const TissueSnapshot& SnapshotTissue::latest(bool* fresh) noexcept {
 
 void SnapshotTissue::publish_now() {
   copy_into_back({});
+  wanted_.store(true, std::memory_order_release);
+}
+
+void SnapshotTissue::publish_last_step() {
+  copy_into_back(last_step_);
   wanted_.store(true, std::memory_order_release);
 }
 

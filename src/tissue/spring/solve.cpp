@@ -161,18 +161,24 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
   }
 }
 
-// The sweeps compiled twice each: for AVX2 + FMA (x86-64-v3) and for any x86-64, chosen at load.
-__attribute__((target_clones("arch=x86-64-v3", "default")))
-void sweeps_double(const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
-                   size_t m) noexcept {
-  sweeps(sn, sn.values.data(), inv_diag, zx, zy, zz, g, m);
-}
+// The sweeps and dense products compiled twice each: for AVX2 + FMA (x86-64-v3) and for any
+// x86-64, chosen per call by a CPU check (a load of a global set by libgcc's constructor). Not
+// target_clones: its ifunc resolvers run during relocation, before a sanitizer's runtime is up,
+// and crash ThreadSanitizer builds at start.
+bool has_x86_64_v3() noexcept { return __builtin_cpu_supports("x86-64-v3"); }
 
-__attribute__((target_clones("arch=x86-64-v3", "default")))
-void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
-                   size_t m) noexcept {
-  sweeps(sn, sn.values_single.data(), inv_diag, zx, zy, zz, g, m);
-}
+#define PALPATE_TWICE(name, params, body)                                   \
+  __attribute__((target("arch=x86-64-v3"))) void name##_v3 params noexcept body \
+  void name##_base params noexcept body
+
+PALPATE_TWICE(sweeps_double_impl,
+              (const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
+               size_t m),
+              { sweeps(sn, sn.values.data(), inv_diag, zx, zy, zz, g, m); })
+PALPATE_TWICE(sweeps_single_impl,
+              (const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
+               size_t m),
+              { sweeps(sn, sn.values_single.data(), inv_diag, zx, zy, zz, g, m); })
 
 template <typename T>
 __attribute__((always_inline)) inline void dense_rows(const T* W, int n, const double* bx, const double* by,
@@ -184,14 +190,42 @@ __attribute__((always_inline)) inline void dense_rows(const T* W, int n, const d
   }
 }
 
-__attribute__((target_clones("arch=x86-64-v3", "default")))
-void dense_double(const double* W, int n, const double* bx, const double* by, const double* bz, double* x) noexcept {
-  dense_rows(W, n, bx, by, bz, x);
+PALPATE_TWICE(dense_double_impl,
+              (const double* W, int n, const double* bx, const double* by, const double* bz, double* x),
+              { dense_rows(W, n, bx, by, bz, x); })
+PALPATE_TWICE(dense_single_impl,
+              (const float* W, int n, const double* bx, const double* by, const double* bz, double* x),
+              { dense_rows(W, n, bx, by, bz, x); })
+#undef PALPATE_TWICE
+
+void sweeps_double(const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
+                   size_t m) noexcept {
+  if (has_x86_64_v3())
+    sweeps_double_impl_v3(sn, inv_diag, zx, zy, zz, g, m);
+  else
+    sweeps_double_impl_base(sn, inv_diag, zx, zy, zz, g, m);
 }
 
-__attribute__((target_clones("arch=x86-64-v3", "default")))
+void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
+                   size_t m) noexcept {
+  if (has_x86_64_v3())
+    sweeps_single_impl_v3(sn, inv_diag, zx, zy, zz, g, m);
+  else
+    sweeps_single_impl_base(sn, inv_diag, zx, zy, zz, g, m);
+}
+
+void dense_double(const double* W, int n, const double* bx, const double* by, const double* bz, double* x) noexcept {
+  if (has_x86_64_v3())
+    dense_double_impl_v3(W, n, bx, by, bz, x);
+  else
+    dense_double_impl_base(W, n, bx, by, bz, x);
+}
+
 void dense_single(const float* W, int n, const double* bx, const double* by, const double* bz, double* x) noexcept {
-  dense_rows(W, n, bx, by, bz, x);
+  if (has_x86_64_v3())
+    dense_single_impl_v3(W, n, bx, by, bz, x);
+  else
+    dense_single_impl_base(W, n, bx, by, bz, x);
 }
 
 }  // namespace
