@@ -23,6 +23,7 @@ struct SpringMaterialDef {
   double grasp_stiffness = 200.0;    // N/m per grasped vertex
   std::string predictor = "";      // predictor file; "" = next to the output
   std::string predictor_policy = "load_or_compute";  // load_or_compute | require_file
+  bool single_precision = false;   // per-tick predictor (and uniform all-pairs forces) in float
 };
 
 std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*);

@@ -26,6 +26,8 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
       {"predictor", &D::predictor, 0, 0, "", "predictor file written by `palpate precompute`"},
       {"predictor_policy", &D::predictor_policy, 0, 0, "",
        "on a missing or mismatched predictor file: recompute it, or stop", "load_or_compute|require_file"},
+      {"single_precision", &D::single_precision, 0, 1, "",
+       "keep the per-tick predictor (and uniform all-pairs forces) in float: faster, Δv to ~1e-6 relative"},
   };
   return table;
 }

@@ -160,6 +160,7 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
   o.contact_stiffness = m.contact_stiffness;
   o.grasp_radius = m.grasp_radius;
   o.grasp_stiffness = m.grasp_stiffness;
+  o.single_precision = m.single_precision;
   const std::filesystem::path base = scene.file.has_parent_path() ? scene.file.parent_path() : std::filesystem::path{};
   if (!m.predictor.empty()) {
     const std::filesystem::path p = m.predictor;
