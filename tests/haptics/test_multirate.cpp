@@ -119,7 +119,9 @@ TEST(MultiRate, StalledPhysicsThreadGivesZeroForceAndRecovers) {
     stalled.push_back(f.at(14).find("stalled") != std::string::npos);
   }
   ASSERT_EQ(fy.size(), 2000u);
-  size_t n_stalled = 0, first = fy.size();
+  // On a loaded machine the physics thread may also be starved for over the timeout at other
+  // times: the watchdog rightly reports those as stalls too, so each episode is checked alike.
+  size_t n_stalled = 0, first = fy.size(), episode = 0;
   for (size_t k = 0; k < fy.size(); ++k) {
     ASSERT_LE(std::abs(fy[k]), 3.3 + 1e-12);
     if (k) {
@@ -128,9 +130,10 @@ TEST(MultiRate, StalledPhysicsThreadGivesZeroForceAndRecovers) {
     if (!stalled[k]) continue;
     ++n_stalled;
     first = std::min(first, k);
-    // Zero during the stall, once the rate limit has brought it down (1.5 N at 0.2 N a tick).
-    if (k >= first + 8) {
-      ASSERT_EQ(fy[k], 0.0) << "tick " << k;
+    if (k == 0 || !stalled[k - 1]) episode = k;
+    // Zero during a stall, once the rate limit has brought it down (1.5 N at 0.2 N a tick).
+    if (k >= episode + 8) {
+      ASSERT_EQ(fy[k], 0.0) << "tick " << k << " (stalled since tick " << episode << ")";
     }
   }
   EXPECT_GE(n_stalled, 150u);  // a 500 ms stall minus the 100 ms timeout, with slack for load
