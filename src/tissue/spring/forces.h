@@ -23,4 +23,28 @@ size_t spring_pass_scratch(const SpringModel& model);
 // Whether this processor runs the AVX2 + FMA kernels (the vectorised pass falls back otherwise).
 bool has_avx2_fma() noexcept;
 
+// Whether this processor runs the AVX-512 kernels (AVX-512 F and VL, with AVX2 + FMA).
+bool has_avx512() noexcept;
+
+// Which kernel a call takes: best, the fastest this processor runs (the step's choice); the others
+// force one (the tests compare them). One this processor lacks falls back to the next narrower.
+enum class SpringKernel { best, scalar, avx2, avx512 };
+
+// The all-pairs forces (the springs in is_all_pairs order, uniform: one stiffness and damping)
+// added to the force arrays of the structure-of-arrays block p: x, y, z, vx, vy, vz, fx, fy, fz,
+// n each, stride ≥ n apart; coincident vertices (l² below 1e-30 m²) get no force. The AVX-512
+// kernel needs p 64-byte aligned and stride a multiple of 8 (all_pairs_stride); otherwise the
+// AVX2 one runs.
+void add_all_pair_forces_soa(const SpringNetwork& net, bool uniform, double* p, size_t stride,
+                             SpringKernel kernel) noexcept;
+
+// The all-pairs block's stride for n vertices (n rounded up to a multiple of 8), and the doubles of
+// scratch it takes from any 8-byte aligned start: 9 strides and up to 7 doubles to the first
+// 64-byte boundary.
+size_t all_pairs_stride(size_t n) noexcept;
+size_t all_pairs_scratch(size_t n) noexcept;
+
+// The first 64-byte boundary at or after p.
+double* align64(double* p) noexcept;
+
 }  // namespace palpate::spring

@@ -3,8 +3,11 @@
 #include "tissue/spring/solve.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <iterator>
+
+#include <immintrin.h>
 
 namespace palpate::spring {
 
@@ -214,6 +217,70 @@ void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* z
     sweeps_single_impl_base(sn, inv_diag, zx, zy, zz, g, m);
 }
 
+#pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see step.cpp
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+// One block of eight columns j0 … j0 + 7 of row i of the symmetric product (lanes in m read, lanes
+// in mu also update y): acc += W_ij b_j, y_j += W_ij b_i.
+template <bool Full>
+__attribute__((target("avx512f"), always_inline)) inline void dense_symmetric_block(
+    const double* w, const double* bx, const double* by, const double* bz, double* yx, double* yy, double* yz,
+    __mmask8 m, __mmask8 mu, __m512d bix, __m512d biy, __m512d biz, __m512d& ax, __m512d& ay, __m512d& az) noexcept {
+  const __m512d v = Full ? _mm512_loadu_pd(w) : _mm512_maskz_loadu_pd(m, w);
+  ax = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(bx) : _mm512_maskz_load_pd(m, bx), ax);
+  ay = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(by) : _mm512_maskz_load_pd(m, by), ay);
+  az = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(bz) : _mm512_maskz_load_pd(m, bz), az);
+  if (Full) {
+    _mm512_store_pd(yx, _mm512_fmadd_pd(v, bix, _mm512_load_pd(yx)));
+    _mm512_store_pd(yy, _mm512_fmadd_pd(v, biy, _mm512_load_pd(yy)));
+    _mm512_store_pd(yz, _mm512_fmadd_pd(v, biz, _mm512_load_pd(yz)));
+  } else {
+    _mm512_mask_store_pd(yx, mu, _mm512_fmadd_pd(v, bix, _mm512_maskz_load_pd(mu, yx)));
+    _mm512_mask_store_pd(yy, mu, _mm512_fmadd_pd(v, biy, _mm512_maskz_load_pd(mu, yy)));
+    _mm512_mask_store_pd(yz, mu, _mm512_fmadd_pd(v, biz, _mm512_maskz_load_pd(mu, yz)));
+  }
+}
+
+// x = W b for a symmetric W (n x n, row-major) from its upper triangle only, so half of W's bytes
+// are read: row i contributes Σ_{j ≥ i} W_ij b_j to x_i and W_ij b_i to x_j for j > i (the
+// all-pairs kernel's pattern). b = (bx, by, bz) and y = (yx, yy, yz, the transposed sums) are n
+// each, N apart (N a multiple of 8) from a 64-byte boundary, so their accesses are aligned blocks
+// of eight; W's rows are read unaligned. x is (n x 3) row-major.
+__attribute__((target("avx512f"))) void dense_symmetric_avx512(const double* W, int n, const double* b, double* y,
+                                                                size_t N, double* x) noexcept {
+  const double *bx = b, *by = b + N, *bz = b + 2 * N;
+  double *yx = y, *yy = y + N, *yz = y + 2 * N;
+  std::fill(y, y + 3 * N, 0.0);
+  for (int i = 0; i < n; ++i) {
+    const double* w = W + static_cast<size_t>(i) * static_cast<size_t>(n);
+    const __m512d bix = _mm512_set1_pd(bx[i]), biy = _mm512_set1_pd(by[i]), biz = _mm512_set1_pd(bz[i]);
+    __m512d ax = _mm512_setzero_pd(), ay = ax, az = ax;
+    const int j0 = i & ~7;
+    const int lo = i - j0, hi = std::min(8, n - j0);
+    const __mmask8 m0 = static_cast<__mmask8>(((1u << hi) - 1) & ~((1u << lo) - 1));
+    const __mmask8 u0 = static_cast<__mmask8>(m0 & ~(1u << lo));  // not the diagonal
+    dense_symmetric_block<false>(w + j0, bx + j0, by + j0, bz + j0, yx + j0, yy + j0, yz + j0, m0, u0, bix, biy,
+                                 biz, ax, ay, az);
+    int j = j0 + 8;
+    for (; j + 8 <= n; j += 8)
+      dense_symmetric_block<true>(w + j, bx + j, by + j, bz + j, yx + j, yy + j, yz + j, 0xFF, 0xFF, bix, biy, biz,
+                                  ax, ay, az);
+    if (j < n) {
+      const __mmask8 m = static_cast<__mmask8>((1u << (n - j)) - 1);
+      dense_symmetric_block<false>(w + j, bx + j, by + j, bz + j, yx + j, yy + j, yz + j, m, m, bix, biy, biz, ax,
+                                   ay, az);
+    }
+    // Row i's transposed sums are complete: rows after i only update y_j for j > i.
+    x[3 * i] = _mm512_reduce_add_pd(ax) + yx[i];
+    x[3 * i + 1] = _mm512_reduce_add_pd(ay) + yy[i];
+    x[3 * i + 2] = _mm512_reduce_add_pd(az) + yz[i];
+  }
+}
+
+#pragma GCC diagnostic pop
+
+bool has_avx512() noexcept { return __builtin_cpu_supports("avx512f") && has_x86_64_v3(); }
+
 void dense_double(const double* W, int n, const double* bx, const double* by, const double* bz, double* x) noexcept {
   if (has_x86_64_v3())
     dense_double_impl_v3(W, n, bx, by, bz, x);
@@ -370,16 +437,22 @@ void solve_columns(const SpringPredictor& p, const RowMat3d& b, RowMat3d& dv, Ro
 
 namespace palpate::spring {
 
+size_t dense_scratch(int n) { return 6 * static_cast<size_t>((n + 7) / 8 * 8) + 8; }
+
 void solve_dense(const SpringPredictor& p, const std::vector<float>& inverse_single, const RowMat3d& b, RowMat3d& x,
-                 double* scratch) noexcept {
+                 double* scratch, bool symmetric) noexcept {
   const int n = p.n;
-  double* bx = scratch;
-  double* by = scratch + n;
-  double* bz = scratch + 2 * static_cast<size_t>(n);
+  const size_t N = static_cast<size_t>((n + 7) / 8 * 8);
+  const std::uintptr_t at = reinterpret_cast<std::uintptr_t>(scratch);
+  double* bx = scratch + ((64 - at % 64) % 64) / sizeof(double);  // the first 64-byte boundary
+  double* by = bx + N;
+  double* bz = bx + 2 * N;
   for (int i = 0; i < n; ++i) {
     bx[i] = b(i, 0); by[i] = b(i, 1); bz[i] = b(i, 2);
   }
-  if (inverse_single.empty()) dense_double(p.inverse.data(), n, bx, by, bz, x.data());
+  if (inverse_single.empty() && symmetric && has_avx512())
+    dense_symmetric_avx512(p.inverse.data(), n, bx, bx + 3 * N, N, x.data());
+  else if (inverse_single.empty()) dense_double(p.inverse.data(), n, bx, by, bz, x.data());
   else dense_single(inverse_single.data(), n, bx, by, bz, x.data());
 }
 

@@ -41,8 +41,14 @@ void solve_supernodal(const SpringPredictor& predictor, const SpringSupernodes& 
 void solve_columns(const SpringPredictor& predictor, const RowMat3d& b, RowMat3d& x, RowMat3d& scratch) noexcept;
 
 // x = A⁻¹ b with the dense inverse (desbrun): one pass over A⁻¹'s rows for the three coordinates,
-// from inverse_single (float, widened) when it is not empty. scratch holds 3n doubles.
+// from inverse_single (float, widened) when it is not empty. With symmetric (the step's choice)
+// and AVX-512, the double inverse is read from its upper triangle only (A⁻¹ is symmetric, and
+// build_spring_model makes the stored one exactly so): half the bytes, the same sums in another
+// order. scratch holds dense_scratch(n) doubles.
 void solve_dense(const SpringPredictor& predictor, const std::vector<float>& inverse_single, const RowMat3d& b,
-                 RowMat3d& x, double* scratch) noexcept;
+                 RowMat3d& x, double* scratch, bool symmetric = true) noexcept;
+
+// Doubles of scratch solve_dense needs: six arrays of n rounded up to 8, from a 64-byte boundary.
+size_t dense_scratch(int n);
 
 }  // namespace palpate::spring
