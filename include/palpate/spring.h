@@ -181,8 +181,8 @@ struct SpringState {
   std::vector<double> soa;  // all-pairs kernel: (9N + 8), N = n rounded up to 8, structure-of-arrays
                             // copies from the first 64-byte boundary; other networks'
                             // spring pass: (16n + 3) x, v, f, r padded to four doubles per vertex;
-                            // sparse solve: (3n + 3·max_height) the permuted right-hand side as
-                            // x…, y…, z…, and the block being solved (used one after the other)
+                            // sparse solve: (4n + 3·max_height) the permuted right-hand side as
+                            // (x, y, z, 0) per vertex, and the block being solved (used one after the other)
   // Grasping: vertices attached to the tool and their offsets from the tip when grabbed.
   static constexpr int kMaxGrasped = 16;
   std::array<int, kMaxGrasped> grasped{};

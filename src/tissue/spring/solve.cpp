@@ -54,13 +54,21 @@ constexpr size_t kGatherWidth = 4;
 // after the other, column i holding its w − 1 − i triangle entries and then its r block entries.
 inline size_t column_offset(size_t i, size_t w, size_t r) noexcept { return i * (w - 1 + r) - i * (i - 1) / 2; }
 
+// (Macros, not functions: no d4 crosses a function boundary, see dot3.)
+#define PALPATE_LOAD4(v, p) \
+  d4 v;                     \
+  std::memcpy(&v, (p), sizeof v)
+#define PALPATE_STORE4(p, v) std::memcpy((p), &(v), sizeof(d4))
+
 // Forward substitution L y = b, then y ← D⁻¹ y, then back substitution Lᵀ x = y, in place on the
-// structure-of-arrays right-hand side (zx, zy, zz), (n) each. Each block's entries of z (its own
-// columns, then its rows below) are gathered into g (3 arrays of stride m = max block height), so
-// every column of the block is one contiguous axpy (forward) or dot (back) over g.
+// right-hand side z4, (4n): each vertex's x, y, z and a zero, so a narrow block updates the three
+// coordinates of a row with one four-wide multiply-add per entry of L, in place. A wider block's
+// entries of z (its own columns, then its rows below) are gathered into g (3 arrays of stride
+// m = max block height) first, so every column of the block is one contiguous axpy (forward) or
+// dot (back) over g, and scattered back.
 template <typename T>
 __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, const T* values, const double* inv_diag,
-                                                  double* zx, double* zy, double* zz, double* g, size_t m) noexcept {
+                                                  double* z4, double* g, size_t m) noexcept {
   const int S = static_cast<int>(sn.first_column.size()) - 1;
   const int* fc = sn.first_column.data();
   const int* rs = sn.row_start.data();
@@ -69,6 +77,27 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
   double* __restrict gx = g;
   double* __restrict gy = g + m;
   double* __restrict gz = g + 2 * m;
+  auto at = [z4](int vertex) { return z4 + 4 * static_cast<size_t>(vertex); };
+  auto gather = [&](int f, size_t w, const int* R, size_t r) {
+    for (size_t i = 0; i < w; ++i) {
+      const double* z = at(f + static_cast<int>(i));
+      gx[i] = z[0]; gy[i] = z[1]; gz[i] = z[2];
+    }
+    for (size_t q = 0; q < r; ++q) {
+      const double* z = at(R[q]);
+      gx[w + q] = z[0]; gy[w + q] = z[1]; gz[w + q] = z[2];
+    }
+  };
+  auto scatter = [&](int f, size_t w, const int* R, size_t r) {
+    for (size_t i = 0; i < w; ++i) {
+      double* z = at(f + static_cast<int>(i));
+      z[0] = gx[i]; z[1] = gy[i]; z[2] = gz[i];
+    }
+    for (size_t q = 0; q < r; ++q) {
+      double* z = at(R[q]);
+      z[0] = gx[w + q]; z[1] = gy[w + q]; z[2] = gz[w + q];
+    }
+  };
   for (int k = 0; k < S; ++k) {
     const int f = fc[k];
     const size_t w = static_cast<size_t>(fc[k + 1] - f), r = static_cast<size_t>(rs[k + 1] - rs[k]);
@@ -79,26 +108,26 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
       for (size_t i = 0; i < w; ++i) {
         const T* c = V + column_offset(i, w, r);
         const int fi = f + static_cast<int>(i);
-        const double a0 = zx[fi], a1 = zy[fi], a2 = zz[fi];
+        PALPATE_LOAD4(a, at(fi));
         const size_t t = w - 1 - i;
         for (size_t j = 0; j < t; ++j) {
-          zx[fi + 1 + static_cast<int>(j)] -= c[j] * a0;
-          zy[fi + 1 + static_cast<int>(j)] -= c[j] * a1;
-          zz[fi + 1 + static_cast<int>(j)] -= c[j] * a2;
+          double* z = at(fi + 1 + static_cast<int>(j));
+          const double v = static_cast<double>(c[j]);
+          PALPATE_LOAD4(y, z);
+          y -= d4{v, v, v, v} * a;
+          PALPATE_STORE4(z, y);
         }
         for (size_t q = 0; q < r; ++q) {
-          const int row = R[q];
-          zx[row] -= c[t + q] * a0; zy[row] -= c[t + q] * a1; zz[row] -= c[t + q] * a2;
+          double* z = at(R[q]);
+          const double v = static_cast<double>(c[t + q]);
+          PALPATE_LOAD4(y, z);
+          y -= d4{v, v, v, v} * a;
+          PALPATE_STORE4(z, y);
         }
       }
       continue;
     }
-    for (size_t i = 0; i < w; ++i) {
-      gx[i] = zx[f + static_cast<int>(i)]; gy[i] = zy[f + static_cast<int>(i)]; gz[i] = zz[f + static_cast<int>(i)];
-    }
-    for (size_t q = 0; q < r; ++q) {
-      gx[w + q] = zx[R[q]]; gy[w + q] = zy[R[q]]; gz[w + q] = zz[R[q]];
-    }
+    gather(f, w, R, r);
     const size_t h = w + r;
     for (size_t i = 0; i < w; ++i) {
       const T* __restrict c = V + column_offset(i, w, r);
@@ -111,16 +140,14 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
         tx[j] -= c[j] * a0; ty[j] -= c[j] * a1; tz[j] -= c[j] * a2;
       }
     }
-    for (size_t i = 0; i < w; ++i) {
-      zx[f + static_cast<int>(i)] = gx[i]; zy[f + static_cast<int>(i)] = gy[i]; zz[f + static_cast<int>(i)] = gz[i];
-    }
-    for (size_t q = 0; q < r; ++q) {
-      zx[R[q]] = gx[w + q]; zy[R[q]] = gy[w + q]; zz[R[q]] = gz[w + q];
-    }
+    scatter(f, w, R, r);
   }
   const int n = fc[S];
   for (int i = 0; i < n; ++i) {
-    zx[i] *= inv_diag[i]; zy[i] *= inv_diag[i]; zz[i] *= inv_diag[i];
+    const double d = inv_diag[i];
+    PALPATE_LOAD4(y, at(i));
+    y *= d4{d, d, d, d};
+    PALPATE_STORE4(at(i), y);
   }
   for (int k = S - 1; k >= 0; --k) {
     const int f = fc[k];
@@ -131,26 +158,23 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
       for (size_t i = w; i-- > 0;) {
         const T* c = V + column_offset(i, w, r);
         const int fi = f + static_cast<int>(i);
-        double a0 = zx[fi], a1 = zy[fi], a2 = zz[fi];
+        PALPATE_LOAD4(a, at(fi));
         const size_t t = w - 1 - i;
         for (size_t j = 0; j < t; ++j) {
-          const int row = fi + 1 + static_cast<int>(j);
-          a0 -= c[j] * zx[row]; a1 -= c[j] * zy[row]; a2 -= c[j] * zz[row];
+          const double v = static_cast<double>(c[j]);
+          PALPATE_LOAD4(y, at(fi + 1 + static_cast<int>(j)));
+          a -= d4{v, v, v, v} * y;
         }
         for (size_t q = 0; q < r; ++q) {
-          const int row = R[q];
-          a0 -= c[t + q] * zx[row]; a1 -= c[t + q] * zy[row]; a2 -= c[t + q] * zz[row];
+          const double v = static_cast<double>(c[t + q]);
+          PALPATE_LOAD4(y, at(R[q]));
+          a -= d4{v, v, v, v} * y;
         }
-        zx[fi] = a0; zy[fi] = a1; zz[fi] = a2;
+        PALPATE_STORE4(at(fi), a);
       }
       continue;
     }
-    for (size_t i = 0; i < w; ++i) {
-      gx[i] = zx[f + static_cast<int>(i)]; gy[i] = zy[f + static_cast<int>(i)]; gz[i] = zz[f + static_cast<int>(i)];
-    }
-    for (size_t q = 0; q < r; ++q) {
-      gx[w + q] = zx[R[q]]; gy[w + q] = zy[R[q]]; gz[w + q] = zz[R[q]];
-    }
+    gather(f, w, R, r);
     const size_t h = w + r;
     for (size_t i = w; i-- > 0;) {
       double t0, t1, t2;
@@ -159,10 +183,14 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
       gx[i] -= t0; gy[i] -= t1; gz[i] -= t2;
     }
     for (size_t i = 0; i < w; ++i) {
-      zx[f + static_cast<int>(i)] = gx[i]; zy[f + static_cast<int>(i)] = gy[i]; zz[f + static_cast<int>(i)] = gz[i];
+      double* z = at(f + static_cast<int>(i));
+      z[0] = gx[i]; z[1] = gy[i]; z[2] = gz[i];
     }
   }
 }
+
+#undef PALPATE_LOAD4
+#undef PALPATE_STORE4
 
 // The sweeps and dense products compiled twice each: for AVX2 + FMA (x86-64-v3) and for any
 // x86-64, chosen per call by a CPU check (a load of a global set by libgcc's constructor). Not
@@ -175,13 +203,11 @@ bool has_x86_64_v3() noexcept { return __builtin_cpu_supports("x86-64-v3"); }
   void name##_base params noexcept body
 
 PALPATE_TWICE(sweeps_double_impl,
-              (const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
-               size_t m),
-              { sweeps(sn, sn.values.data(), inv_diag, zx, zy, zz, g, m); })
+              (const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m),
+              { sweeps(sn, sn.values.data(), inv_diag, z4, g, m); })
 PALPATE_TWICE(sweeps_single_impl,
-              (const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
-               size_t m),
-              { sweeps(sn, sn.values_single.data(), inv_diag, zx, zy, zz, g, m); })
+              (const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m),
+              { sweeps(sn, sn.values_single.data(), inv_diag, z4, g, m); })
 
 template <typename T>
 __attribute__((always_inline)) inline void dense_rows(const T* W, int n, const double* bx, const double* by,
@@ -201,20 +227,18 @@ PALPATE_TWICE(dense_single_impl,
               { dense_rows(W, n, bx, by, bz, x); })
 #undef PALPATE_TWICE
 
-void sweeps_double(const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
-                   size_t m) noexcept {
+void sweeps_double(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m) noexcept {
   if (has_x86_64_v3())
-    sweeps_double_impl_v3(sn, inv_diag, zx, zy, zz, g, m);
+    sweeps_double_impl_v3(sn, inv_diag, z4, g, m);
   else
-    sweeps_double_impl_base(sn, inv_diag, zx, zy, zz, g, m);
+    sweeps_double_impl_base(sn, inv_diag, z4, g, m);
 }
 
-void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
-                   size_t m) noexcept {
+void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m) noexcept {
   if (has_x86_64_v3())
-    sweeps_single_impl_v3(sn, inv_diag, zx, zy, zz, g, m);
+    sweeps_single_impl_v3(sn, inv_diag, z4, g, m);
   else
-    sweeps_single_impl_base(sn, inv_diag, zx, zy, zz, g, m);
+    sweeps_single_impl_base(sn, inv_diag, z4, g, m);
 }
 
 #pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see step.cpp
@@ -378,27 +402,25 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
 }
 
 size_t supernodal_scratch(const SpringPredictor& p, const SpringSupernodes& sn) {
-  return 3 * static_cast<size_t>(p.n) + 3 * static_cast<size_t>(sn.max_height);
+  return 4 * static_cast<size_t>(p.n) + 3 * static_cast<size_t>(sn.max_height);
 }
 
 void solve_supernodal(const SpringPredictor& p, const SpringSupernodes& sn, const RowMat3d& b, RowMat3d& x,
                       double* scratch) noexcept {
   const int n = p.n;
-  double* zx = scratch;
-  double* zy = scratch + n;
-  double* zz = scratch + 2 * static_cast<size_t>(n);
+  double* z4 = scratch;
   const int* perm = p.perm.data();
   for (int i = 0; i < n; ++i) {
-    const int q = perm[i];
-    zx[q] = b(i, 0); zy[q] = b(i, 1); zz[q] = b(i, 2);
+    double* z = z4 + 4 * static_cast<size_t>(perm[i]);
+    z[0] = b(i, 0); z[1] = b(i, 1); z[2] = b(i, 2); z[3] = 0;
   }
-  double* g = scratch + 3 * static_cast<size_t>(n);
+  double* g = scratch + 4 * static_cast<size_t>(n);
   const size_t m = static_cast<size_t>(sn.max_height);
-  if (sn.values_single.empty()) sweeps_double(sn, p.inv_diag.data(), zx, zy, zz, g, m);
-  else sweeps_single(sn, p.inv_diag.data(), zx, zy, zz, g, m);
+  if (sn.values_single.empty()) sweeps_double(sn, p.inv_diag.data(), z4, g, m);
+  else sweeps_single(sn, p.inv_diag.data(), z4, g, m);
   for (int i = 0; i < n; ++i) {
-    const int q = perm[i];
-    x(i, 0) = zx[q]; x(i, 1) = zy[q]; x(i, 2) = zz[q];
+    const double* z = z4 + 4 * static_cast<size_t>(perm[i]);
+    x(i, 0) = z[0]; x(i, 1) = z[1]; x(i, 2) = z[2];
   }
 }
 

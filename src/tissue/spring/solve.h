@@ -26,12 +26,13 @@ Result<SpringPredictor> build_predictor(const SpringNetwork& network, const Spri
 SpringSupernodes make_supernodes(const SpringPredictor& predictor, bool single = false, double max_padding = 0.5,
                                  int max_width = 128);
 
-// Doubles of scratch solve_supernodal needs: (3n + 3·max_height).
+// Doubles of scratch solve_supernodal needs: (4n + 3·max_height).
 size_t supernodal_scratch(const SpringPredictor& predictor, const SpringSupernodes& supernodes);
 
-// x = A⁻¹ b for b, x (n x 3) with A = Pᵀ L D Lᵀ P: permute into structure-of-arrays, forward
-// substitution block by block (gather the block's entries, one axpy per column, scatter), scale by
-// D⁻¹, back substitution (one dot per column), permute back. The three coordinates share every value of L read; float values are
+// x = A⁻¹ b for b, x (n x 3) with A = Pᵀ L D Lᵀ P: permute into four doubles per vertex (x, y, z,
+// 0), forward substitution block by block (narrow blocks in place, one four-wide multiply-add per
+// entry; wide ones gathered into structure-of-arrays, one axpy per column, scattered back), scale
+// by D⁻¹, back substitution (one dot per column), permute back. The three coordinates share every value of L read; float values are
 // widened and accumulated in double. scratch holds
 // supernodal_scratch() doubles. b and x may not alias.
 void solve_supernodal(const SpringPredictor& predictor, const SpringSupernodes& supernodes, const RowMat3d& b,
