@@ -301,15 +301,20 @@ TEST(SpringSolve, VectorisedSpringPassMatchesTheScalarOne) {
   const int a = net.springs[7][0], b = net.springs[7][1];
   x.row(b) = x.row(a);  // spring 7 has zero length
   RowMat3d f0 = random_rhs(n, 9), r0 = random_rhs(n, 13);  // both passes add to what is there
-  RowMat3d f1 = f0, r1 = r0;
+  const RowMat3d f_in = f0, r_in = r0;
   std::vector<double> scratch(spring::spring_pass_scratch(model) + 1);
   spring::add_spring_forces_and_stiffness_term(model, x, v, f0, r0, nullptr, false);
-  // Start one double in, so the pass has to find its own 32-byte boundary.
-  spring::add_spring_forces_and_stiffness_term(model, x, v, f1, r1, scratch.data() + 1, true);
-  if (!spring::has_avx2_fma()) std::printf("no AVX2 + FMA here: both ran the scalar pass\n");
-  EXPECT_LT((f1 - f0).cwiseAbs().maxCoeff(), 1e-13 * f0.cwiseAbs().maxCoeff());
-  EXPECT_LT((r1 - r0).cwiseAbs().maxCoeff(), 1e-13 * r0.cwiseAbs().maxCoeff());
-  EXPECT_TRUE(f1.allFinite() && r1.allFinite());
+  if (!spring::has_avx2_fma()) std::printf("no AVX2 + FMA here: all ran the scalar pass\n");
+  if (!spring::has_avx512()) std::printf("no AVX-512 here: its pass fell back to AVX2\n");
+  // The AVX2 pass and the AVX-512 one (rsqrt14 + Newton instead of the divider).
+  for (const spring::SpringKernel k : {spring::SpringKernel::avx2, spring::SpringKernel::avx512}) {
+    RowMat3d f1 = f_in, r1 = r_in;
+    // Start one double in, so the pass has to find its own 32-byte boundary.
+    spring::add_spring_forces_and_stiffness_term(model, x, v, f1, r1, scratch.data() + 1, true, k);
+    EXPECT_LT((f1 - f0).cwiseAbs().maxCoeff(), 1e-13 * f0.cwiseAbs().maxCoeff());
+    EXPECT_LT((r1 - r0).cwiseAbs().maxCoeff(), 1e-13 * r0.cwiseAbs().maxCoeff());
+    EXPECT_TRUE(f1.allFinite() && r1.allFinite());
+  }
 }
 
 TEST(SpringSolve, SymmetricDenseProductMatchesTheFullOne) {

@@ -16,14 +16,35 @@ namespace {
 // Four doubles: one AVX register in the avx2 clone, two SSE2 registers in the default one.
 typedef double d4 __attribute__((vector_size(32)));
 
+typedef double d8 __attribute__((vector_size(64)));
+
 // (t0, t1, t2) = Σ_j a[j] (x[j], y[j], z[j]), j < w: one read of a for the three coordinates.
 // T is the stored value type (double, or float widened to double: accumulation is in double).
-template <typename T>
+// Wide: eight at a time first (the AVX-512 build), then four, then one by one.
+template <typename T, bool Wide = false>
 __attribute__((always_inline)) inline void dot3(const T* a, const double* x, const double* y, const double* z, int w,
                                                 double& t0, double& t1, double& t2) noexcept {
   // (No d4 crosses a function boundary: that would tie the ABI to AVX.)
-  d4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
   int j = 0;
+  double r0 = 0, r1 = 0, r2 = 0;
+  if constexpr (Wide) {
+    d8 s0 = {0, 0, 0, 0, 0, 0, 0, 0}, s1 = s0, s2 = s0;
+    for (; j + 8 <= w; j += 8) {
+      d8 v;
+      for (int q = 0; q < 8; ++q) v[q] = static_cast<double>(a[j + q]);
+      d8 vx, vy, vz;
+      std::memcpy(&vx, x + j, sizeof vx);
+      std::memcpy(&vy, y + j, sizeof vy);
+      std::memcpy(&vz, z + j, sizeof vz);
+      s0 += v * vx;
+      s1 += v * vy;
+      s2 += v * vz;
+    }
+    r0 = ((s0[0] + s0[1]) + (s0[2] + s0[3])) + ((s0[4] + s0[5]) + (s0[6] + s0[7]));
+    r1 = ((s1[0] + s1[1]) + (s1[2] + s1[3])) + ((s1[4] + s1[5]) + (s1[6] + s1[7]));
+    r2 = ((s2[0] + s2[1]) + (s2[2] + s2[3])) + ((s2[4] + s2[5]) + (s2[6] + s2[7]));
+  }
+  d4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
   for (; j + 4 <= w; j += 4) {
     const d4 v = {static_cast<double>(a[j]), static_cast<double>(a[j + 1]), static_cast<double>(a[j + 2]),
                   static_cast<double>(a[j + 3])};
@@ -35,9 +56,9 @@ __attribute__((always_inline)) inline void dot3(const T* a, const double* x, con
     s1 += v * vy;
     s2 += v * vz;
   }
-  double r0 = (s0[0] + s0[1]) + (s0[2] + s0[3]);
-  double r1 = (s1[0] + s1[1]) + (s1[2] + s1[3]);
-  double r2 = (s2[0] + s2[1]) + (s2[2] + s2[3]);
+  r0 += (s0[0] + s0[1]) + (s0[2] + s0[3]);
+  r1 += (s1[0] + s1[1]) + (s1[2] + s1[3]);
+  r2 += (s2[0] + s2[1]) + (s2[2] + s2[3]);
   for (; j < w; ++j) {
     const double v = static_cast<double>(a[j]);
     r0 += v * x[j];
@@ -66,7 +87,7 @@ inline size_t column_offset(size_t i, size_t w, size_t r) noexcept { return i * 
 // entries of z (its own columns, then its rows below) are gathered into g (3 arrays of stride
 // m = max block height) first, so every column of the block is one contiguous axpy (forward) or
 // dot (back) over g, and scattered back.
-template <typename T>
+template <typename T, bool Wide = false>
 __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, const T* values, const double* inv_diag,
                                                   double* z4, double* g, size_t m) noexcept {
   const int S = static_cast<int>(sn.first_column.size()) - 1;
@@ -179,7 +200,7 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
     for (size_t i = w; i-- > 0;) {
       double t0, t1, t2;
       const size_t len = h - i - 1;
-      dot3(V + column_offset(i, w, r), gx + i + 1, gy + i + 1, gz + i + 1, static_cast<int>(len), t0, t1, t2);
+      dot3<T, Wide>(V + column_offset(i, w, r), gx + i + 1, gy + i + 1, gz + i + 1, static_cast<int>(len), t0, t1, t2);
       gx[i] -= t0; gy[i] -= t1; gz[i] -= t2;
     }
     for (size_t i = 0; i < w; ++i) {
@@ -201,6 +222,20 @@ bool has_x86_64_v3() noexcept { return __builtin_cpu_supports("x86-64-v3"); }
 #define PALPATE_TWICE(name, params, body)                                   \
   __attribute__((target("arch=x86-64-v3"))) void name##_v3 params noexcept body \
   void name##_base params noexcept body
+
+// The sweeps a third time for AVX-512 (x86-64-v4): the wide blocks' dots eight at a time, their
+// axpys vectorised over 512 bits.
+#define PALPATE_V4 __attribute__((target("arch=x86-64-v4,prefer-vector-width=512")))
+bool has_x86_64_v4() noexcept { return __builtin_cpu_supports("x86-64-v4"); }
+PALPATE_V4 void sweeps_double_impl_v4(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g,
+                                      size_t m) noexcept {
+  sweeps<double, true>(sn, sn.values.data(), inv_diag, z4, g, m);
+}
+PALPATE_V4 void sweeps_single_impl_v4(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g,
+                                      size_t m) noexcept {
+  sweeps<float, true>(sn, sn.values_single.data(), inv_diag, z4, g, m);
+}
+#undef PALPATE_V4
 
 PALPATE_TWICE(sweeps_double_impl,
               (const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m),
@@ -228,14 +263,18 @@ PALPATE_TWICE(dense_single_impl,
 #undef PALPATE_TWICE
 
 void sweeps_double(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m) noexcept {
-  if (has_x86_64_v3())
+  if (has_x86_64_v4())
+    sweeps_double_impl_v4(sn, inv_diag, z4, g, m);
+  else if (has_x86_64_v3())
     sweeps_double_impl_v3(sn, inv_diag, z4, g, m);
   else
     sweeps_double_impl_base(sn, inv_diag, z4, g, m);
 }
 
 void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m) noexcept {
-  if (has_x86_64_v3())
+  if (has_x86_64_v4())
+    sweeps_single_impl_v4(sn, inv_diag, z4, g, m);
+  else if (has_x86_64_v3())
     sweeps_single_impl_v3(sn, inv_diag, z4, g, m);
   else
     sweeps_single_impl_base(sn, inv_diag, z4, g, m);

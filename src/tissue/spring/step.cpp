@@ -792,14 +792,76 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
   }
 }
 
+// The same with AVX-512 VL (256-bit registers): 1/l without the divider.
+__attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(const SpringNetwork& net, double h, const double* x4,
+                                                           const double* v4, double* f4, double* r4) noexcept {
+  const size_t s = net.springs.size();
+  const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
+  const __m256d hv = _mm256_set1_pd(h), zero = _mm256_setzero_pd();
+  const __m256d half = _mm256_set1_pd(0.5), three = _mm256_set1_pd(3.0);
+  size_t e = 0;
+  for (; e + 4 <= s; e += 4) {
+    size_t a[4], b[4];
+    __m256d d[4], w[4];
+    for (int q = 0; q < 4; ++q) {
+      a[q] = 4 * static_cast<size_t>(net.springs[e + q][0]);
+      b[q] = 4 * static_cast<size_t>(net.springs[e + q][1]);
+      d[q] = _mm256_sub_pd(_mm256_load_pd(x4 + b[q]), _mm256_load_pd(x4 + a[q]));
+      w[q] = _mm256_sub_pd(_mm256_load_pd(v4 + b[q]), _mm256_load_pd(v4 + a[q]));
+    }
+    const __m256d l2 = hsum4(_mm256_mul_pd(d[0], d[0]), _mm256_mul_pd(d[1], d[1]), _mm256_mul_pd(d[2], d[2]),
+                             _mm256_mul_pd(d[3], d[3]));
+    const __m256d dw = hsum4(_mm256_mul_pd(d[0], w[0]), _mm256_mul_pd(d[1], w[1]), _mm256_mul_pd(d[2], w[2]),
+                             _mm256_mul_pd(d[3], w[3]));
+    // 1/l from rsqrt14 (relative error below 2⁻¹⁴) and two Newton steps (to round-off, see
+    // all_pairs_avx512): no square root or division; g = k (1 − L r) + c (d·w) r².
+    const __m256d ok = _mm256_cmp_pd(l2, zero, _CMP_GT_OQ);  // l > 0 (false for NaN), as the scalar loop
+    __m256d r = _mm256_rsqrt14_pd(l2);
+    for (int it = 0; it < 2; ++it)
+      r = _mm256_mul_pd(_mm256_mul_pd(half, r), _mm256_fnmadd_pd(_mm256_mul_pd(l2, r), r, three));
+    const __m256d k = _mm256_loadu_pd(K + e);
+    __m256d g = _mm256_fnmadd_pd(_mm256_mul_pd(k, _mm256_loadu_pd(L + e)), r, k);
+    g = _mm256_fmadd_pd(_mm256_mul_pd(_mm256_loadu_pd(C + e), dw), _mm256_mul_pd(r, r), g);
+    g = _mm256_and_pd(g, ok);
+    const __m256d kh = _mm256_mul_pd(hv, k);
+    const __m256d gq[4] = {_mm256_permute4x64_pd(g, 0x00), _mm256_permute4x64_pd(g, 0x55),
+                           _mm256_permute4x64_pd(g, 0xAA), _mm256_permute4x64_pd(g, 0xFF)};
+    const __m256d kq[4] = {_mm256_permute4x64_pd(kh, 0x00), _mm256_permute4x64_pd(kh, 0x55),
+                           _mm256_permute4x64_pd(kh, 0xAA), _mm256_permute4x64_pd(kh, 0xFF)};
+    for (int q = 0; q < 4; ++q) {
+      const __m256d fd = _mm256_mul_pd(gq[q], d[q]);
+      const __m256d rw = _mm256_mul_pd(kq[q], w[q]);
+      _mm256_store_pd(r4 + a[q], _mm256_add_pd(_mm256_load_pd(r4 + a[q]), rw));
+      _mm256_store_pd(r4 + b[q], _mm256_sub_pd(_mm256_load_pd(r4 + b[q]), rw));
+      _mm256_store_pd(f4 + a[q], _mm256_add_pd(_mm256_load_pd(f4 + a[q]), fd));
+      _mm256_store_pd(f4 + b[q], _mm256_sub_pd(_mm256_load_pd(f4 + b[q]), fd));
+    }
+  }
+  for (; e < s; ++e) {  // the last s mod 4 springs
+    const size_t i = 4 * static_cast<size_t>(net.springs[e][0]), j = 4 * static_cast<size_t>(net.springs[e][1]);
+    const double dx = x4[j] - x4[i], dy = x4[j + 1] - x4[i + 1], dz = x4[j + 2] - x4[i + 2];
+    const double wx = v4[j] - v4[i], wy = v4[j + 1] - v4[i + 1], wz = v4[j + 2] - v4[i + 2];
+    const double kh = h * K[e];
+    r4[i] += kh * wx; r4[i + 1] += kh * wy; r4[i + 2] += kh * wz;
+    r4[j] -= kh * wx; r4[j + 1] -= kh * wy; r4[j + 2] -= kh * wz;
+    const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
+    if (!(l > 0)) continue;
+    const double inv_l = 1.0 / l;
+    const double g = (K[e] * (l - L[e]) + C[e] * (wx * dx + wy * dy + wz * dz) * inv_l) * inv_l;
+    f4[i] += g * dx; f4[i + 1] += g * dy; f4[i + 2] += g * dz;
+    f4[j] -= g * dx; f4[j + 1] -= g * dy; f4[j + 2] -= g * dz;
+  }
+}
+
 }  // namespace
 
 void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat3d& x, const RowMat3d& v,
-                                          RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised) noexcept {
+                                          RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised,
+                                          SpringKernel kernel) noexcept {
   const SpringNetwork& net = model.network;
   const double h = model.options.dt;
   const size_t n = net.size();
-  if (!vectorised || !has_avx2_fma() || net.springs.empty() || scratch == nullptr) {
+  if (!vectorised || kernel == SpringKernel::scalar || !has_avx2_fma() || net.springs.empty() || scratch == nullptr) {
     spring_pass_scalar(net, h, x.data(), v.data(), f.data(), r.data());
     return;
   }
@@ -814,7 +876,10 @@ void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat
     v4[4 * i] = vd[3 * i]; v4[4 * i + 1] = vd[3 * i + 1]; v4[4 * i + 2] = vd[3 * i + 2]; v4[4 * i + 3] = 0;
   }
   std::fill(f4, f4 + 8 * n, 0.0);  // f4 and r4
-  spring_pass_avx2(net, h, x4, v4, f4, r4);
+  if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512())
+    spring_pass_avx512(net, h, x4, v4, f4, r4);
+  else
+    spring_pass_avx2(net, h, x4, v4, f4, r4);
   double* fd = f.data();
   double* rd = r.data();
   for (size_t i = 0; i < n; ++i)
