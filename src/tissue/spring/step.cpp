@@ -192,10 +192,84 @@ __attribute__((target("avx512f"), always_inline)) inline void all_pairs_avx512_b
   }
 }
 
+// One row's share of a block of eight columns j: the force g d on each vertex j from row vertex i
+// (lanes in m; the others zero), added to the row's sums and to f (the block's total, subtracted
+// from f_j by the caller).
+struct AllPairsRow {
+  __m512d xi, yi, zi, vxi, vyi, vzi, sx, sy, sz;
+};
+
+template <bool Uniform>
+__attribute__((target("avx512f"), always_inline)) inline void all_pairs_avx512_row(
+    __m512d xj, __m512d yj, __m512d zj, __m512d vxj, __m512d vyj, __m512d vzj, __mmask8 m, __m512d rl, __m512d k,
+    __m512d c, AllPairsRow& row, __m512d& fx, __m512d& fy, __m512d& fz) noexcept {
+  const __m512d half = _mm512_set1_pd(0.5), three = _mm512_set1_pd(3.0), tiny = _mm512_set1_pd(1e-30);
+  const __m512d dx = _mm512_sub_pd(xj, row.xi), dy = _mm512_sub_pd(yj, row.yi), dz = _mm512_sub_pd(zj, row.zi);
+  const __m512d l2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
+  const __mmask8 ok = _mm512_mask_cmp_pd_mask(m, l2, tiny, _CMP_GE_OQ);
+  const __m512d l2c = _mm512_max_pd(l2, tiny);
+  __m512d r = _mm512_rsqrt14_pd(l2c);
+  for (int it = 0; it < 2; ++it)
+    r = _mm512_mul_pd(_mm512_mul_pd(half, r), _mm512_fnmadd_pd(_mm512_mul_pd(l2c, r), r, three));
+  const __m512d dvd = _mm512_fmadd_pd(
+      _mm512_sub_pd(vzj, row.vzi), dz,
+      _mm512_fmadd_pd(_mm512_sub_pd(vyj, row.vyi), dy, _mm512_mul_pd(_mm512_sub_pd(vxj, row.vxi), dx)));
+  __m512d g = _mm512_fnmadd_pd(_mm512_mul_pd(k, rl), r, k);
+  g = _mm512_fmadd_pd(_mm512_mul_pd(c, dvd), _mm512_mul_pd(r, r), g);
+  g = _mm512_maskz_mov_pd(ok, g);
+  const __m512d gx = _mm512_mul_pd(g, dx), gy = _mm512_mul_pd(g, dy), gz = _mm512_mul_pd(g, dz);
+  row.sx = _mm512_add_pd(row.sx, gx); row.sy = _mm512_add_pd(row.sy, gy); row.sz = _mm512_add_pd(row.sz, gz);
+  fx = _mm512_add_pd(fx, gx); fy = _mm512_add_pd(fy, gy); fz = _mm512_add_pd(fz, gz);
+}
+
+// A row's per-spring value for a block: Mode 0, the row's first block (values from a into the lanes
+// of m, which start past lane 0: expand-load); 1, a full block; 2, the row's last (lanes from 0).
+template <int Mode>
+__attribute__((target("avx512f"), always_inline)) inline __m512d all_pairs_spring_values(__mmask8 m,
+                                                                                          const double* a) noexcept {
+  if constexpr (Mode == 0) return _mm512_maskz_expandloadu_pd(m, a);
+  else if constexpr (Mode == 1) return _mm512_loadu_pd(a);
+  else return _mm512_maskz_loadu_pd(m, a);
+}
+
+// Two rows i, i + 1 against one aligned block of eight columns j: the vertex values at j are loaded,
+// and f_j loaded and stored, once for both. ea, eb: the index of row a's, b's spring at the
+// block's first lane it holds (Mode 0) or at lane 0 (Modes 1, 2).
+template <bool Uniform, int Mode>
+__attribute__((target("avx512f"), always_inline)) inline void all_pairs_avx512_two(
+    const double* X, const double* Y, const double* Z, const double* VX, const double* VY, const double* VZ,
+    double* FX, double* FY, double* FZ, const double* RL, const double* KS, const double* CS, int j, size_t ea,
+    size_t eb, __mmask8 ma, __mmask8 mb, AllPairsRow& a, AllPairsRow& b) noexcept {
+  const __mmask8 m = static_cast<__mmask8>(ma | mb);
+#define PALPATE_LOADJ(q) (Mode == 1 ? _mm512_load_pd(q) : _mm512_maskz_load_pd(m, q))
+  const __m512d xj = PALPATE_LOADJ(X + j), yj = PALPATE_LOADJ(Y + j), zj = PALPATE_LOADJ(Z + j);
+  const __m512d vxj = PALPATE_LOADJ(VX + j), vyj = PALPATE_LOADJ(VY + j), vzj = PALPATE_LOADJ(VZ + j);
+#undef PALPATE_LOADJ
+  __m512d fx = _mm512_setzero_pd(), fy = fx, fz = fx;
+  const __m512d ka = Uniform ? _mm512_set1_pd(KS[0]) : all_pairs_spring_values<Mode>(ma, KS + ea);
+  const __m512d ca = Uniform ? _mm512_set1_pd(CS[0]) : all_pairs_spring_values<Mode>(ma, CS + ea);
+  all_pairs_avx512_row<Uniform>(xj, yj, zj, vxj, vyj, vzj, ma, all_pairs_spring_values<Mode>(ma, RL + ea), ka, ca, a,
+                                fx, fy, fz);
+  const __m512d kb = Uniform ? _mm512_set1_pd(KS[0]) : all_pairs_spring_values<Mode>(mb, KS + eb);
+  const __m512d cb = Uniform ? _mm512_set1_pd(CS[0]) : all_pairs_spring_values<Mode>(mb, CS + eb);
+  all_pairs_avx512_row<Uniform>(xj, yj, zj, vxj, vyj, vzj, mb, all_pairs_spring_values<Mode>(mb, RL + eb), kb, cb, b,
+                                fx, fy, fz);
+  if (Mode == 1) {
+    _mm512_store_pd(FX + j, _mm512_sub_pd(_mm512_load_pd(FX + j), fx));
+    _mm512_store_pd(FY + j, _mm512_sub_pd(_mm512_load_pd(FY + j), fy));
+    _mm512_store_pd(FZ + j, _mm512_sub_pd(_mm512_load_pd(FZ + j), fz));
+  } else {
+    _mm512_mask_store_pd(FX + j, m, _mm512_sub_pd(_mm512_maskz_load_pd(m, FX + j), fx));
+    _mm512_mask_store_pd(FY + j, m, _mm512_sub_pd(_mm512_maskz_load_pd(m, FY + j), fy));
+    _mm512_mask_store_pd(FZ + j, m, _mm512_sub_pd(_mm512_maskz_load_pd(m, FZ + j), fz));
+  }
+}
+
 // p must be 64-byte aligned and N a multiple of 8: every block then starts at a multiple of 8,
 // so its loads and stores of x … fz are aligned (unaligned 512-bit accesses split across two cache
 // lines, which cost more than the arithmetic); a row's first block is masked below j = i + 1 and
 // its rest lengths (per-spring arrays start at the row's first spring, not aligned) expand-loaded.
+// Rows go two at a time, sharing each block's loads of x … vz and its load and store of f.
 template <bool Uniform>
 __attribute__((target("avx512f"))) void all_pairs_avx512(int n, const SpringNetwork& net, double* p, size_t N) noexcept {
   const double *X = p, *Y = p + N, *Z = p + 2 * N, *VX = p + 3 * N, *VY = p + 4 * N, *VZ = p + 5 * N;
@@ -204,7 +278,41 @@ __attribute__((target("avx512f"))) void all_pairs_avx512(int n, const SpringNetw
   const double* KS = net.stiffness.data();
   const double* CS = net.damping.data();
   size_t e = 0;
-  for (int i = 0; i + 1 < n; ++i) {
+  int i = 0;
+  // Rows two at a time: row i + 1's springs start n − i − 1 after row i's.
+  for (; i + 2 < n; i += 2) {
+#define PALPATE_ROW(q)                                                                                      \
+  AllPairsRow{_mm512_set1_pd(X[q]),  _mm512_set1_pd(Y[q]),  _mm512_set1_pd(Z[q]),  _mm512_set1_pd(VX[q]), \
+              _mm512_set1_pd(VY[q]), _mm512_set1_pd(VZ[q]), _mm512_setzero_pd(),   _mm512_setzero_pd(),   \
+              _mm512_setzero_pd()}
+    AllPairsRow a = PALPATE_ROW(i), b = PALPATE_ROW(i + 1);
+#undef PALPATE_ROW
+    const size_t eb = e + static_cast<size_t>(n - i - 1);  // row i + 1's first spring (i + 1, i + 2)
+    const int j0 = (i + 1) & ~7;
+    const int hi = std::min(8, n - j0);
+    auto lanes_from = [hi](int lo) {
+      return lo >= 8 ? __mmask8{0} : static_cast<__mmask8>(((1u << hi) - 1) & ~((1u << lo) - 1));
+    };
+    all_pairs_avx512_two<Uniform, 0>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, j0, e, eb, lanes_from(i + 1 - j0),
+                                     lanes_from(i + 2 - j0), a, b);
+    // Spring index at lane 0 of the block at j: row i's at e + (j − i − 1), row i + 1's at eb + (j − i − 2).
+    int j = j0 + 8;
+    for (; j + 8 <= n; j += 8)
+      all_pairs_avx512_two<Uniform, 1>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, j,
+                                       e + static_cast<size_t>(j - i - 1), eb + static_cast<size_t>(j - i - 2), 0xFF,
+                                       0xFF, a, b);
+    if (j < n) {
+      const __mmask8 m = static_cast<__mmask8>((1u << (n - j)) - 1);
+      all_pairs_avx512_two<Uniform, 2>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, j,
+                                       e + static_cast<size_t>(j - i - 1), eb + static_cast<size_t>(j - i - 2), m, m,
+                                       a, b);
+    }
+    FX[i] += _mm512_reduce_add_pd(a.sx); FY[i] += _mm512_reduce_add_pd(a.sy); FZ[i] += _mm512_reduce_add_pd(a.sz);
+    FX[i + 1] += _mm512_reduce_add_pd(b.sx); FY[i + 1] += _mm512_reduce_add_pd(b.sy);
+    FZ[i + 1] += _mm512_reduce_add_pd(b.sz);
+    e = eb + static_cast<size_t>(n - i - 2);
+  }
+  for (; i + 1 < n; ++i) {  // the last row when n − 1 is odd
     const __m512d xi = _mm512_set1_pd(X[i]), yi = _mm512_set1_pd(Y[i]), zi = _mm512_set1_pd(Z[i]);
     const __m512d vxi = _mm512_set1_pd(VX[i]), vyi = _mm512_set1_pd(VY[i]), vzi = _mm512_set1_pd(VZ[i]);
     __m512d sx = _mm512_setzero_pd(), sy = sx, sz = sx;
