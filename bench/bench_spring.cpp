@@ -2,12 +2,14 @@
 // precomputing and loading a predictor, and of a baseline that re-factorises every tick.
 #include <palpate/spring.h>
 
+#include "tissue/spring/forces.h"
 #include "tissue/spring/shapes.h"
 #include "tissue/spring/solve.h"
 
 #include <Eigen/SparseCholesky>
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -132,6 +134,32 @@ BENCHMARK(BM_SpringTick_PaperAllPairs500_Single)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block10_Sparse_Single)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block20_Sparse_Single)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Organ10k_Sparse_Single)->Unit(benchmark::kMicrosecond);
+
+// The paper case's all-pairs force kernel alone, per instruction set (one this processor lacks
+// falls back to the next narrower), in one process so the ratios are fair on a shared machine.
+void all_pairs_kernel(benchmark::State& state, spring::SpringKernel kernel) {
+  const SpringModel& model = cached("paper");
+  const size_t n = model.network.size(), N = spring::all_pairs_stride(n);
+  std::vector<double> scratch(spring::all_pairs_scratch(n));
+  double* p = spring::align64(scratch.data());
+  for (size_t i = 0; i < n; ++i)
+    for (size_t c = 0; c < 3; ++c) {
+      p[c * N + i] = model.network.rest(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(c)) *
+                     (1.0 + 0.01 * std::sin(static_cast<double>(3 * i + c)));
+      p[(3 + c) * N + i] = 0.01 * std::cos(static_cast<double>(3 * i + c));
+    }
+  for (auto _ : state) {
+    std::fill(p + 6 * N, p + 9 * N, 0.0);
+    spring::add_all_pair_forces_soa(model.network, true, p, N, kernel);
+    benchmark::DoNotOptimize(p);
+  }
+}
+void BM_SpringAllPairsKernel_Scalar(benchmark::State& s) { all_pairs_kernel(s, spring::SpringKernel::scalar); }
+void BM_SpringAllPairsKernel_Avx2(benchmark::State& s) { all_pairs_kernel(s, spring::SpringKernel::avx2); }
+void BM_SpringAllPairsKernel_Avx512(benchmark::State& s) { all_pairs_kernel(s, spring::SpringKernel::avx512); }
+BENCHMARK(BM_SpringAllPairsKernel_Scalar)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringAllPairsKernel_Avx2)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringAllPairsKernel_Avx512)->Unit(benchmark::kMicrosecond);
 
 // Baseline solve in the same process: AMD ordering and the column-by-column substitution of the
 // first version (the rest of the tick is the current code).

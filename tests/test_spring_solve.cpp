@@ -176,7 +176,7 @@ TEST(SpringSolve, SinglePrecisionErrorIsBounded) {
     const RowMat3d b = random_rhs(dbl.predictor.n, 11);
     RowMat3d x(b.rows(), 3), y(b.rows(), 3);
     std::vector<double> scratch(std::max(spring::supernodal_scratch(dbl.predictor, dbl.supernodes),
-                                         static_cast<size_t>(3 * b.rows())));
+                                         spring::dense_scratch(dbl.predictor.n)));
     if (solver == SpringSolver::sparse) {
       spring::solve_supernodal(dbl.predictor, dbl.supernodes, b, x, scratch.data());
       spring::solve_supernodal(flt.predictor, flt.supernodes, b, y, scratch.data());
@@ -301,13 +301,101 @@ TEST(SpringSolve, VectorisedSpringPassMatchesTheScalarOne) {
   const int a = net.springs[7][0], b = net.springs[7][1];
   x.row(b) = x.row(a);  // spring 7 has zero length
   RowMat3d f0 = random_rhs(n, 9), r0 = random_rhs(n, 13);  // both passes add to what is there
-  RowMat3d f1 = f0, r1 = r0;
+  const RowMat3d f_in = f0, r_in = r0;
   std::vector<double> scratch(spring::spring_pass_scratch(model) + 1);
   spring::add_spring_forces_and_stiffness_term(model, x, v, f0, r0, nullptr, false);
-  // Start one double in, so the pass has to find its own 32-byte boundary.
-  spring::add_spring_forces_and_stiffness_term(model, x, v, f1, r1, scratch.data() + 1, true);
-  if (!spring::has_avx2_fma()) std::printf("no AVX2 + FMA here: both ran the scalar pass\n");
-  EXPECT_LT((f1 - f0).cwiseAbs().maxCoeff(), 1e-13 * f0.cwiseAbs().maxCoeff());
-  EXPECT_LT((r1 - r0).cwiseAbs().maxCoeff(), 1e-13 * r0.cwiseAbs().maxCoeff());
-  EXPECT_TRUE(f1.allFinite() && r1.allFinite());
+  if (!spring::has_avx2_fma()) std::printf("no AVX2 + FMA here: all ran the scalar pass\n");
+  if (!spring::has_avx512()) std::printf("no AVX-512 here: its pass fell back to AVX2\n");
+  // The AVX2 pass and the AVX-512 one (rsqrt14 + Newton instead of the divider).
+  for (const spring::SpringKernel k : {spring::SpringKernel::avx2, spring::SpringKernel::avx512}) {
+    RowMat3d f1 = f_in, r1 = r_in;
+    // Start one double in, so the pass has to find its own 32-byte boundary.
+    spring::add_spring_forces_and_stiffness_term(model, x, v, f1, r1, scratch.data() + 1, true, k);
+    EXPECT_LT((f1 - f0).cwiseAbs().maxCoeff(), 1e-13 * f0.cwiseAbs().maxCoeff());
+    EXPECT_LT((r1 - r0).cwiseAbs().maxCoeff(), 1e-13 * r0.cwiseAbs().maxCoeff());
+    EXPECT_TRUE(f1.allFinite() && r1.allFinite());
+  }
+}
+
+TEST(SpringSolve, SymmetricDenseProductMatchesTheFullOne) {
+  // The desbrun product from A⁻¹'s upper triangle (AVX-512) against the full row-by-row product,
+  // for blocks of 8 to 125 vertices (8, 12, 16, 27, 36, 45, …: full and partial blocks of eight,
+  // rows that start in every lane): the same sums in
+  // another order, so 1e-13 of the largest entry. The stored inverse is exactly symmetric.
+  for (const int side : {2, 3, 4, 5}) {
+    for (const int extra : {0, 1, 2}) {
+      const int nx = side, ny = side, nz = side + extra;
+      if (nx * ny * nz > 130) continue;
+      SpringNetwork net = block_network(nx, ny, nz, 0.005, 100.0, 0.1, false, 0.05);
+      SpringModelOptions o;
+      o.solver = SpringSolver::desbrun;
+      const SpringModel model = must_build(net, o);
+      const int n = model.predictor.n;
+      const auto& W = model.predictor.inverse;
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+          ASSERT_EQ(W[static_cast<size_t>(i * n + j)], W[static_cast<size_t>(j * n + i)]);
+      const RowMat3d b = random_rhs(n, 17);
+      RowMat3d full(n, 3), sym(n, 3);
+      // One double in, so the product has to find its own 64-byte boundary.
+      std::vector<double> scratch(spring::dense_scratch(n) + 1);
+      spring::solve_dense(model.predictor, model.inverse_single, b, full, scratch.data() + 1, false);
+      spring::solve_dense(model.predictor, model.inverse_single, b, sym, scratch.data() + 1, true);
+      EXPECT_LT((sym - full).cwiseAbs().maxCoeff(), 1e-13 * full.cwiseAbs().maxCoeff()) << n << " vertices";
+      EXPECT_TRUE(sym.allFinite());
+    }
+  }
+}
+
+TEST(SpringSolve, AllPairsKernelsMatchTheScalarOne) {
+  // The AVX2 and AVX-512 all-pairs kernels against the scalar loop on jittered, moving balls (rows
+  // of every length mod 8), uniform and per-spring stiffness, damping and rest length, two
+  // coincident vertices (no force between them): forces agree to 1e-13 of the largest (the
+  // vector kernels' 1/l is Newton-refined to round-off, the scalar one's is a square root).
+  // Balls of 34, 38, 37 and 42 vertices: the AVX-512 kernel takes rows two at a time, and with an
+  // even count a last row alone.
+  for (const int count : {37, 38, 41, 45}) {
+  SpringNetworkOptions o;
+  o.topology = SpringTopology::all_pairs;
+  o.spring_damping = 0.3;
+  auto net = make_spring_network(spring::make_ball_surface(count, 0.02), o, "ball");
+  ASSERT_TRUE(net.ok());
+  const size_t n = net->size(), N = spring::all_pairs_stride(n);
+  std::printf("%zu vertices\n", n);
+  ASSERT_EQ(N % 8, 0u);
+  const RowMat3d x = net->rest + 0.002 * random_rhs(static_cast<Eigen::Index>(n), 3);
+  const RowMat3d v = random_rhs(static_cast<Eigen::Index>(n), 5);
+  for (const bool uniform : {true, false}) {
+    SpringNetwork m = *net;
+    if (!uniform)
+      for (size_t e = 0; e < m.springs.size(); ++e) {
+        m.stiffness[e] *= 1.0 + 0.5 * std::sin(static_cast<double>(e));
+        m.damping[e] *= 1.0 + 0.5 * std::cos(static_cast<double>(e));
+        m.rest_length[e] *= 1.0 + 0.1 * std::sin(3.0 * static_cast<double>(e));
+      }
+    std::vector<std::vector<double>> out;
+    for (const spring::SpringKernel k :
+         {spring::SpringKernel::scalar, spring::SpringKernel::avx2, spring::SpringKernel::avx512}) {
+      std::vector<double> scratch(spring::all_pairs_scratch(n) + 1);
+      double* p = spring::align64(scratch.data() + 1);
+      for (size_t i = 0; i < n; ++i)
+        for (size_t c = 0; c < 3; ++c) {
+          p[c * N + i] = x(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(c));
+          p[(3 + c) * N + i] = v(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(c));
+        }
+      for (size_t c = 0; c < 3; ++c) p[c * N + 20] = p[c * N + 9];  // vertices 9 and 20 coincide
+      spring::add_all_pair_forces_soa(m, uniform, p, N, k);
+      out.emplace_back(p + 6 * N, p + 9 * N);
+    }
+    if (!spring::has_avx512()) std::printf("no AVX-512 here: its kernel fell back\n");
+    double top = 0;
+    for (double f : out[0]) top = std::max(top, std::abs(f));
+    ASSERT_GT(top, 0.0);
+    for (size_t k = 1; k < out.size(); ++k)
+      for (size_t q = 0; q < out[0].size(); ++q) {
+        ASSERT_TRUE(std::isfinite(out[k][q]));
+        ASSERT_LT(std::abs(out[k][q] - out[0][q]), 1e-13 * top) << "kernel " << k << " entry " << q;
+      }
+  }
+  }
 }

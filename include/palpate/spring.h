@@ -178,10 +178,11 @@ struct SpringState {
   // Scratch, (n x 3) each.
   RowMat3d force, rhs, dv, work;
   std::vector<float> soa_single;  // all-pairs kernel in single precision: (9n) as soa, in float
-  std::vector<double> soa;  // all-pairs kernel: (10n) structure-of-arrays copies; other networks'
+  std::vector<double> soa;  // all-pairs kernel: (9N + 8), N = n rounded up to 8, structure-of-arrays
+                            // copies from the first 64-byte boundary; other networks'
                             // spring pass: (16n + 3) x, v, f, r padded to four doubles per vertex;
-                            // sparse solve: (3n + 3·max_height) the permuted right-hand side as
-                            // x…, y…, z…, and the block being solved (used one after the other)
+                            // sparse solve: (4n + 3·max_height) the permuted right-hand side as
+                            // (x, y, z, 0) per vertex, and the block being solved (used one after the other)
   // Grasping: vertices attached to the tool and their offsets from the tip when grabbed.
   static constexpr int kMaxGrasped = 16;
   std::array<int, kMaxGrasped> grasped{};

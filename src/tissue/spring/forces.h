@@ -12,9 +12,13 @@ namespace palpate::spring {
 //   r_i += h k_e (v_j − v_i),  r_j −= the same.
 // x, v, f, r are (n x 3). vectorised: four springs at a time with AVX2 on padded copies of x, v
 // (scratch: spring_pass_scratch() doubles); the scalar loop otherwise or without AVX2 + FMA.
-// Both take the same square root and division, so they agree to round-off (fused multiply-adds).
+// The AVX2 pass takes the same square root and division as the scalar one; the AVX-512 one 1/l
+// from rsqrt14 and two Newton steps. All agree to round-off.
+// kernel: avx2 forces the AVX2 pass where AVX-512 would be chosen (best); scalar the scalar loop.
+enum class SpringKernel;
 void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat3d& x, const RowMat3d& v,
-                                          RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised) noexcept;
+                                          RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised,
+                                          SpringKernel kernel) noexcept;
 
 // Doubles of scratch the vectorised pass needs: (16n + 3), x, v, f and r with four doubles per vertex
 // from the first 32-byte boundary on (scratch is only 8-byte aligned).
@@ -22,5 +26,34 @@ size_t spring_pass_scratch(const SpringModel& model);
 
 // Whether this processor runs the AVX2 + FMA kernels (the vectorised pass falls back otherwise).
 bool has_avx2_fma() noexcept;
+
+// Whether this processor runs the AVX-512 kernels (AVX-512 F and VL, with AVX2 + FMA).
+bool has_avx512() noexcept;
+
+// Which kernel a call takes: best, the fastest this processor runs (the step's choice); the others
+// force one (the tests compare them). One this processor lacks falls back to the next narrower.
+enum class SpringKernel { best, scalar, avx2, avx512 };
+
+inline void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat3d& x, const RowMat3d& v,
+                                                 RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised) noexcept {
+  add_spring_forces_and_stiffness_term(model, x, v, f, r, scratch, vectorised, SpringKernel::best);
+}
+
+// The all-pairs forces (the springs in is_all_pairs order, uniform: one stiffness and damping)
+// added to the force arrays of the structure-of-arrays block p: x, y, z, vx, vy, vz, fx, fy, fz,
+// n each, stride ≥ n apart; coincident vertices (l² below 1e-30 m²) get no force. The AVX-512
+// kernel needs p 64-byte aligned and stride a multiple of 8 (all_pairs_stride); otherwise the
+// AVX2 one runs.
+void add_all_pair_forces_soa(const SpringNetwork& net, bool uniform, double* p, size_t stride,
+                             SpringKernel kernel) noexcept;
+
+// The all-pairs block's stride for n vertices (n rounded up to a multiple of 8), and the doubles of
+// scratch it takes from any 8-byte aligned start: 9 strides and up to 7 doubles to the first
+// 64-byte boundary.
+size_t all_pairs_stride(size_t n) noexcept;
+size_t all_pairs_scratch(size_t n) noexcept;
+
+// The first 64-byte boundary at or after p.
+double* align64(double* p) noexcept;
 
 }  // namespace palpate::spring

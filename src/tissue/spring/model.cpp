@@ -188,6 +188,15 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
   m.options = options;
   m.predictor = std::move(predictor);
   m.supernodes = spring::make_supernodes(m.predictor, options.single_precision);
+  if (m.predictor.kind == SpringSolver::desbrun && m.predictor.inverse.size() == static_cast<size_t>(m.predictor.n) * static_cast<size_t>(m.predictor.n)) {
+    // A⁻¹ is symmetric; the one computed column by column (or read from a file) is so only to
+    // round-off. Make it exactly symmetric, so the product from its upper triangle (solve_dense)
+    // is the full product.
+    const size_t n = static_cast<size_t>(m.predictor.n);
+    double* W = m.predictor.inverse.data();
+    for (size_t i = 0; i < n; ++i)
+      for (size_t j = i + 1; j < n; ++j) W[i * n + j] = W[j * n + i] = 0.5 * (W[i * n + j] + W[j * n + i]);
+  }
   if (options.single_precision && m.predictor.kind == SpringSolver::desbrun)
     m.inverse_single.assign(m.predictor.inverse.begin(), m.predictor.inverse.end());
   if (!m.network.stiffness.empty() &&
@@ -236,8 +245,8 @@ SpringState make_state(const SpringModel& model) {
   s.rhs = RowMat3d::Zero(n, 3);
   s.dv = RowMat3d::Zero(n, 3);
   s.work = RowMat3d::Zero(n, 3);
-  size_t soa = model.all_pairs ? static_cast<size_t>(n) * 10 : 0;
-  if (model.predictor.kind == SpringSolver::desbrun) soa = std::max(soa, static_cast<size_t>(n) * 3);
+  size_t soa = model.all_pairs ? spring::all_pairs_scratch(static_cast<size_t>(n)) : 0;
+  if (model.predictor.kind == SpringSolver::desbrun) soa = std::max(soa, spring::dense_scratch(static_cast<int>(n)));
   if (!model.supernodes.empty()) soa = std::max(soa, spring::supernodal_scratch(model.predictor, model.supernodes));
   if (!model.all_pairs && model.predictor.kind != SpringSolver::exact)
     soa = std::max(soa, spring::spring_pass_scratch(model));

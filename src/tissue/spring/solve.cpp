@@ -3,8 +3,11 @@
 #include "tissue/spring/solve.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <iterator>
+
+#include <immintrin.h>
 
 namespace palpate::spring {
 
@@ -13,14 +16,35 @@ namespace {
 // Four doubles: one AVX register in the avx2 clone, two SSE2 registers in the default one.
 typedef double d4 __attribute__((vector_size(32)));
 
+typedef double d8 __attribute__((vector_size(64)));
+
 // (t0, t1, t2) = Σ_j a[j] (x[j], y[j], z[j]), j < w: one read of a for the three coordinates.
 // T is the stored value type (double, or float widened to double: accumulation is in double).
-template <typename T>
+// Wide: eight at a time first (the AVX-512 build), then four, then one by one.
+template <typename T, bool Wide = false>
 __attribute__((always_inline)) inline void dot3(const T* a, const double* x, const double* y, const double* z, int w,
                                                 double& t0, double& t1, double& t2) noexcept {
   // (No d4 crosses a function boundary: that would tie the ABI to AVX.)
-  d4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
   int j = 0;
+  double r0 = 0, r1 = 0, r2 = 0;
+  if constexpr (Wide) {
+    d8 s0 = {0, 0, 0, 0, 0, 0, 0, 0}, s1 = s0, s2 = s0;
+    for (; j + 8 <= w; j += 8) {
+      d8 v;
+      for (int q = 0; q < 8; ++q) v[q] = static_cast<double>(a[j + q]);
+      d8 vx, vy, vz;
+      std::memcpy(&vx, x + j, sizeof vx);
+      std::memcpy(&vy, y + j, sizeof vy);
+      std::memcpy(&vz, z + j, sizeof vz);
+      s0 += v * vx;
+      s1 += v * vy;
+      s2 += v * vz;
+    }
+    r0 = ((s0[0] + s0[1]) + (s0[2] + s0[3])) + ((s0[4] + s0[5]) + (s0[6] + s0[7]));
+    r1 = ((s1[0] + s1[1]) + (s1[2] + s1[3])) + ((s1[4] + s1[5]) + (s1[6] + s1[7]));
+    r2 = ((s2[0] + s2[1]) + (s2[2] + s2[3])) + ((s2[4] + s2[5]) + (s2[6] + s2[7]));
+  }
+  d4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
   for (; j + 4 <= w; j += 4) {
     const d4 v = {static_cast<double>(a[j]), static_cast<double>(a[j + 1]), static_cast<double>(a[j + 2]),
                   static_cast<double>(a[j + 3])};
@@ -32,9 +56,9 @@ __attribute__((always_inline)) inline void dot3(const T* a, const double* x, con
     s1 += v * vy;
     s2 += v * vz;
   }
-  double r0 = (s0[0] + s0[1]) + (s0[2] + s0[3]);
-  double r1 = (s1[0] + s1[1]) + (s1[2] + s1[3]);
-  double r2 = (s2[0] + s2[1]) + (s2[2] + s2[3]);
+  r0 += (s0[0] + s0[1]) + (s0[2] + s0[3]);
+  r1 += (s1[0] + s1[1]) + (s1[2] + s1[3]);
+  r2 += (s2[0] + s2[1]) + (s2[2] + s2[3]);
   for (; j < w; ++j) {
     const double v = static_cast<double>(a[j]);
     r0 += v * x[j];
@@ -51,13 +75,21 @@ constexpr size_t kGatherWidth = 4;
 // after the other, column i holding its w − 1 − i triangle entries and then its r block entries.
 inline size_t column_offset(size_t i, size_t w, size_t r) noexcept { return i * (w - 1 + r) - i * (i - 1) / 2; }
 
+// (Macros, not functions: no d4 crosses a function boundary, see dot3.)
+#define PALPATE_LOAD4(v, p) \
+  d4 v;                     \
+  std::memcpy(&v, (p), sizeof v)
+#define PALPATE_STORE4(p, v) std::memcpy((p), &(v), sizeof(d4))
+
 // Forward substitution L y = b, then y ← D⁻¹ y, then back substitution Lᵀ x = y, in place on the
-// structure-of-arrays right-hand side (zx, zy, zz), (n) each. Each block's entries of z (its own
-// columns, then its rows below) are gathered into g (3 arrays of stride m = max block height), so
-// every column of the block is one contiguous axpy (forward) or dot (back) over g.
-template <typename T>
+// right-hand side z4, (4n): each vertex's x, y, z and a zero, so a narrow block updates the three
+// coordinates of a row with one four-wide multiply-add per entry of L, in place. A wider block's
+// entries of z (its own columns, then its rows below) are gathered into g (3 arrays of stride
+// m = max block height) first, so every column of the block is one contiguous axpy (forward) or
+// dot (back) over g, and scattered back.
+template <typename T, bool Wide = false>
 __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, const T* values, const double* inv_diag,
-                                                  double* zx, double* zy, double* zz, double* g, size_t m) noexcept {
+                                                  double* z4, double* g, size_t m) noexcept {
   const int S = static_cast<int>(sn.first_column.size()) - 1;
   const int* fc = sn.first_column.data();
   const int* rs = sn.row_start.data();
@@ -66,6 +98,27 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
   double* __restrict gx = g;
   double* __restrict gy = g + m;
   double* __restrict gz = g + 2 * m;
+  auto at = [z4](int vertex) { return z4 + 4 * static_cast<size_t>(vertex); };
+  auto gather = [&](int f, size_t w, const int* R, size_t r) {
+    for (size_t i = 0; i < w; ++i) {
+      const double* z = at(f + static_cast<int>(i));
+      gx[i] = z[0]; gy[i] = z[1]; gz[i] = z[2];
+    }
+    for (size_t q = 0; q < r; ++q) {
+      const double* z = at(R[q]);
+      gx[w + q] = z[0]; gy[w + q] = z[1]; gz[w + q] = z[2];
+    }
+  };
+  auto scatter = [&](int f, size_t w, const int* R, size_t r) {
+    for (size_t i = 0; i < w; ++i) {
+      double* z = at(f + static_cast<int>(i));
+      z[0] = gx[i]; z[1] = gy[i]; z[2] = gz[i];
+    }
+    for (size_t q = 0; q < r; ++q) {
+      double* z = at(R[q]);
+      z[0] = gx[w + q]; z[1] = gy[w + q]; z[2] = gz[w + q];
+    }
+  };
   for (int k = 0; k < S; ++k) {
     const int f = fc[k];
     const size_t w = static_cast<size_t>(fc[k + 1] - f), r = static_cast<size_t>(rs[k + 1] - rs[k]);
@@ -76,26 +129,26 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
       for (size_t i = 0; i < w; ++i) {
         const T* c = V + column_offset(i, w, r);
         const int fi = f + static_cast<int>(i);
-        const double a0 = zx[fi], a1 = zy[fi], a2 = zz[fi];
+        PALPATE_LOAD4(a, at(fi));
         const size_t t = w - 1 - i;
         for (size_t j = 0; j < t; ++j) {
-          zx[fi + 1 + static_cast<int>(j)] -= c[j] * a0;
-          zy[fi + 1 + static_cast<int>(j)] -= c[j] * a1;
-          zz[fi + 1 + static_cast<int>(j)] -= c[j] * a2;
+          double* z = at(fi + 1 + static_cast<int>(j));
+          const double v = static_cast<double>(c[j]);
+          PALPATE_LOAD4(y, z);
+          y -= d4{v, v, v, v} * a;
+          PALPATE_STORE4(z, y);
         }
         for (size_t q = 0; q < r; ++q) {
-          const int row = R[q];
-          zx[row] -= c[t + q] * a0; zy[row] -= c[t + q] * a1; zz[row] -= c[t + q] * a2;
+          double* z = at(R[q]);
+          const double v = static_cast<double>(c[t + q]);
+          PALPATE_LOAD4(y, z);
+          y -= d4{v, v, v, v} * a;
+          PALPATE_STORE4(z, y);
         }
       }
       continue;
     }
-    for (size_t i = 0; i < w; ++i) {
-      gx[i] = zx[f + static_cast<int>(i)]; gy[i] = zy[f + static_cast<int>(i)]; gz[i] = zz[f + static_cast<int>(i)];
-    }
-    for (size_t q = 0; q < r; ++q) {
-      gx[w + q] = zx[R[q]]; gy[w + q] = zy[R[q]]; gz[w + q] = zz[R[q]];
-    }
+    gather(f, w, R, r);
     const size_t h = w + r;
     for (size_t i = 0; i < w; ++i) {
       const T* __restrict c = V + column_offset(i, w, r);
@@ -108,16 +161,14 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
         tx[j] -= c[j] * a0; ty[j] -= c[j] * a1; tz[j] -= c[j] * a2;
       }
     }
-    for (size_t i = 0; i < w; ++i) {
-      zx[f + static_cast<int>(i)] = gx[i]; zy[f + static_cast<int>(i)] = gy[i]; zz[f + static_cast<int>(i)] = gz[i];
-    }
-    for (size_t q = 0; q < r; ++q) {
-      zx[R[q]] = gx[w + q]; zy[R[q]] = gy[w + q]; zz[R[q]] = gz[w + q];
-    }
+    scatter(f, w, R, r);
   }
   const int n = fc[S];
   for (int i = 0; i < n; ++i) {
-    zx[i] *= inv_diag[i]; zy[i] *= inv_diag[i]; zz[i] *= inv_diag[i];
+    const double d = inv_diag[i];
+    PALPATE_LOAD4(y, at(i));
+    y *= d4{d, d, d, d};
+    PALPATE_STORE4(at(i), y);
   }
   for (int k = S - 1; k >= 0; --k) {
     const int f = fc[k];
@@ -128,38 +179,39 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
       for (size_t i = w; i-- > 0;) {
         const T* c = V + column_offset(i, w, r);
         const int fi = f + static_cast<int>(i);
-        double a0 = zx[fi], a1 = zy[fi], a2 = zz[fi];
+        PALPATE_LOAD4(a, at(fi));
         const size_t t = w - 1 - i;
         for (size_t j = 0; j < t; ++j) {
-          const int row = fi + 1 + static_cast<int>(j);
-          a0 -= c[j] * zx[row]; a1 -= c[j] * zy[row]; a2 -= c[j] * zz[row];
+          const double v = static_cast<double>(c[j]);
+          PALPATE_LOAD4(y, at(fi + 1 + static_cast<int>(j)));
+          a -= d4{v, v, v, v} * y;
         }
         for (size_t q = 0; q < r; ++q) {
-          const int row = R[q];
-          a0 -= c[t + q] * zx[row]; a1 -= c[t + q] * zy[row]; a2 -= c[t + q] * zz[row];
+          const double v = static_cast<double>(c[t + q]);
+          PALPATE_LOAD4(y, at(R[q]));
+          a -= d4{v, v, v, v} * y;
         }
-        zx[fi] = a0; zy[fi] = a1; zz[fi] = a2;
+        PALPATE_STORE4(at(fi), a);
       }
       continue;
     }
-    for (size_t i = 0; i < w; ++i) {
-      gx[i] = zx[f + static_cast<int>(i)]; gy[i] = zy[f + static_cast<int>(i)]; gz[i] = zz[f + static_cast<int>(i)];
-    }
-    for (size_t q = 0; q < r; ++q) {
-      gx[w + q] = zx[R[q]]; gy[w + q] = zy[R[q]]; gz[w + q] = zz[R[q]];
-    }
+    gather(f, w, R, r);
     const size_t h = w + r;
     for (size_t i = w; i-- > 0;) {
       double t0, t1, t2;
       const size_t len = h - i - 1;
-      dot3(V + column_offset(i, w, r), gx + i + 1, gy + i + 1, gz + i + 1, static_cast<int>(len), t0, t1, t2);
+      dot3<T, Wide>(V + column_offset(i, w, r), gx + i + 1, gy + i + 1, gz + i + 1, static_cast<int>(len), t0, t1, t2);
       gx[i] -= t0; gy[i] -= t1; gz[i] -= t2;
     }
     for (size_t i = 0; i < w; ++i) {
-      zx[f + static_cast<int>(i)] = gx[i]; zy[f + static_cast<int>(i)] = gy[i]; zz[f + static_cast<int>(i)] = gz[i];
+      double* z = at(f + static_cast<int>(i));
+      z[0] = gx[i]; z[1] = gy[i]; z[2] = gz[i];
     }
   }
 }
+
+#undef PALPATE_LOAD4
+#undef PALPATE_STORE4
 
 // The sweeps and dense products compiled twice each: for AVX2 + FMA (x86-64-v3) and for any
 // x86-64, chosen per call by a CPU check (a load of a global set by libgcc's constructor). Not
@@ -171,14 +223,26 @@ bool has_x86_64_v3() noexcept { return __builtin_cpu_supports("x86-64-v3"); }
   __attribute__((target("arch=x86-64-v3"))) void name##_v3 params noexcept body \
   void name##_base params noexcept body
 
+// The sweeps a third time for AVX-512 (x86-64-v4): the wide blocks' dots eight at a time, their
+// axpys vectorised over 512 bits.
+#define PALPATE_V4 __attribute__((target("arch=x86-64-v4,prefer-vector-width=512")))
+bool has_x86_64_v4() noexcept { return __builtin_cpu_supports("x86-64-v4"); }
+PALPATE_V4 void sweeps_double_impl_v4(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g,
+                                      size_t m) noexcept {
+  sweeps<double, true>(sn, sn.values.data(), inv_diag, z4, g, m);
+}
+PALPATE_V4 void sweeps_single_impl_v4(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g,
+                                      size_t m) noexcept {
+  sweeps<float, true>(sn, sn.values_single.data(), inv_diag, z4, g, m);
+}
+#undef PALPATE_V4
+
 PALPATE_TWICE(sweeps_double_impl,
-              (const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
-               size_t m),
-              { sweeps(sn, sn.values.data(), inv_diag, zx, zy, zz, g, m); })
+              (const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m),
+              { sweeps(sn, sn.values.data(), inv_diag, z4, g, m); })
 PALPATE_TWICE(sweeps_single_impl,
-              (const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
-               size_t m),
-              { sweeps(sn, sn.values_single.data(), inv_diag, zx, zy, zz, g, m); })
+              (const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m),
+              { sweeps(sn, sn.values_single.data(), inv_diag, z4, g, m); })
 
 template <typename T>
 __attribute__((always_inline)) inline void dense_rows(const T* W, int n, const double* bx, const double* by,
@@ -198,21 +262,87 @@ PALPATE_TWICE(dense_single_impl,
               { dense_rows(W, n, bx, by, bz, x); })
 #undef PALPATE_TWICE
 
-void sweeps_double(const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
-                   size_t m) noexcept {
-  if (has_x86_64_v3())
-    sweeps_double_impl_v3(sn, inv_diag, zx, zy, zz, g, m);
+void sweeps_double(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m) noexcept {
+  if (has_x86_64_v4())
+    sweeps_double_impl_v4(sn, inv_diag, z4, g, m);
+  else if (has_x86_64_v3())
+    sweeps_double_impl_v3(sn, inv_diag, z4, g, m);
   else
-    sweeps_double_impl_base(sn, inv_diag, zx, zy, zz, g, m);
+    sweeps_double_impl_base(sn, inv_diag, z4, g, m);
 }
 
-void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* zx, double* zy, double* zz, double* g,
-                   size_t m) noexcept {
-  if (has_x86_64_v3())
-    sweeps_single_impl_v3(sn, inv_diag, zx, zy, zz, g, m);
+void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m) noexcept {
+  if (has_x86_64_v4())
+    sweeps_single_impl_v4(sn, inv_diag, z4, g, m);
+  else if (has_x86_64_v3())
+    sweeps_single_impl_v3(sn, inv_diag, z4, g, m);
   else
-    sweeps_single_impl_base(sn, inv_diag, zx, zy, zz, g, m);
+    sweeps_single_impl_base(sn, inv_diag, z4, g, m);
 }
+
+#pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see step.cpp
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+// One block of eight columns j0 … j0 + 7 of row i of the symmetric product (lanes in m read, lanes
+// in mu also update y): acc += W_ij b_j, y_j += W_ij b_i.
+template <bool Full>
+__attribute__((target("avx512f"), always_inline)) inline void dense_symmetric_block(
+    const double* w, const double* bx, const double* by, const double* bz, double* yx, double* yy, double* yz,
+    __mmask8 m, __mmask8 mu, __m512d bix, __m512d biy, __m512d biz, __m512d& ax, __m512d& ay, __m512d& az) noexcept {
+  const __m512d v = Full ? _mm512_loadu_pd(w) : _mm512_maskz_loadu_pd(m, w);
+  ax = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(bx) : _mm512_maskz_load_pd(m, bx), ax);
+  ay = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(by) : _mm512_maskz_load_pd(m, by), ay);
+  az = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(bz) : _mm512_maskz_load_pd(m, bz), az);
+  if (Full) {
+    _mm512_store_pd(yx, _mm512_fmadd_pd(v, bix, _mm512_load_pd(yx)));
+    _mm512_store_pd(yy, _mm512_fmadd_pd(v, biy, _mm512_load_pd(yy)));
+    _mm512_store_pd(yz, _mm512_fmadd_pd(v, biz, _mm512_load_pd(yz)));
+  } else {
+    _mm512_mask_store_pd(yx, mu, _mm512_fmadd_pd(v, bix, _mm512_maskz_load_pd(mu, yx)));
+    _mm512_mask_store_pd(yy, mu, _mm512_fmadd_pd(v, biy, _mm512_maskz_load_pd(mu, yy)));
+    _mm512_mask_store_pd(yz, mu, _mm512_fmadd_pd(v, biz, _mm512_maskz_load_pd(mu, yz)));
+  }
+}
+
+// x = W b for a symmetric W (n x n, row-major) from its upper triangle only, so half of W's bytes
+// are read: row i contributes Σ_{j ≥ i} W_ij b_j to x_i and W_ij b_i to x_j for j > i (the
+// all-pairs kernel's pattern). b = (bx, by, bz) and y = (yx, yy, yz, the transposed sums) are n
+// each, N apart (N a multiple of 8) from a 64-byte boundary, so their accesses are aligned blocks
+// of eight; W's rows are read unaligned. x is (n x 3) row-major.
+__attribute__((target("avx512f"))) void dense_symmetric_avx512(const double* W, int n, const double* b, double* y,
+                                                                size_t N, double* x) noexcept {
+  const double *bx = b, *by = b + N, *bz = b + 2 * N;
+  double *yx = y, *yy = y + N, *yz = y + 2 * N;
+  std::fill(y, y + 3 * N, 0.0);
+  for (int i = 0; i < n; ++i) {
+    const double* w = W + static_cast<size_t>(i) * static_cast<size_t>(n);
+    const __m512d bix = _mm512_set1_pd(bx[i]), biy = _mm512_set1_pd(by[i]), biz = _mm512_set1_pd(bz[i]);
+    __m512d ax = _mm512_setzero_pd(), ay = ax, az = ax;
+    const int j0 = i & ~7;
+    const int lo = i - j0, hi = std::min(8, n - j0);
+    const __mmask8 m0 = static_cast<__mmask8>(((1u << hi) - 1) & ~((1u << lo) - 1));
+    const __mmask8 u0 = static_cast<__mmask8>(m0 & ~(1u << lo));  // not the diagonal
+    dense_symmetric_block<false>(w + j0, bx + j0, by + j0, bz + j0, yx + j0, yy + j0, yz + j0, m0, u0, bix, biy,
+                                 biz, ax, ay, az);
+    int j = j0 + 8;
+    for (; j + 8 <= n; j += 8)
+      dense_symmetric_block<true>(w + j, bx + j, by + j, bz + j, yx + j, yy + j, yz + j, 0xFF, 0xFF, bix, biy, biz,
+                                  ax, ay, az);
+    if (j < n) {
+      const __mmask8 m = static_cast<__mmask8>((1u << (n - j)) - 1);
+      dense_symmetric_block<false>(w + j, bx + j, by + j, bz + j, yx + j, yy + j, yz + j, m, m, bix, biy, biz, ax,
+                                   ay, az);
+    }
+    // Row i's transposed sums are complete: rows after i only update y_j for j > i.
+    x[3 * i] = _mm512_reduce_add_pd(ax) + yx[i];
+    x[3 * i + 1] = _mm512_reduce_add_pd(ay) + yy[i];
+    x[3 * i + 2] = _mm512_reduce_add_pd(az) + yz[i];
+  }
+}
+
+#pragma GCC diagnostic pop
+
+bool has_avx512() noexcept { return __builtin_cpu_supports("avx512f") && has_x86_64_v3(); }
 
 void dense_double(const double* W, int n, const double* bx, const double* by, const double* bz, double* x) noexcept {
   if (has_x86_64_v3())
@@ -311,27 +441,25 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
 }
 
 size_t supernodal_scratch(const SpringPredictor& p, const SpringSupernodes& sn) {
-  return 3 * static_cast<size_t>(p.n) + 3 * static_cast<size_t>(sn.max_height);
+  return 4 * static_cast<size_t>(p.n) + 3 * static_cast<size_t>(sn.max_height);
 }
 
 void solve_supernodal(const SpringPredictor& p, const SpringSupernodes& sn, const RowMat3d& b, RowMat3d& x,
                       double* scratch) noexcept {
   const int n = p.n;
-  double* zx = scratch;
-  double* zy = scratch + n;
-  double* zz = scratch + 2 * static_cast<size_t>(n);
+  double* z4 = scratch;
   const int* perm = p.perm.data();
   for (int i = 0; i < n; ++i) {
-    const int q = perm[i];
-    zx[q] = b(i, 0); zy[q] = b(i, 1); zz[q] = b(i, 2);
+    double* z = z4 + 4 * static_cast<size_t>(perm[i]);
+    z[0] = b(i, 0); z[1] = b(i, 1); z[2] = b(i, 2); z[3] = 0;
   }
-  double* g = scratch + 3 * static_cast<size_t>(n);
+  double* g = scratch + 4 * static_cast<size_t>(n);
   const size_t m = static_cast<size_t>(sn.max_height);
-  if (sn.values_single.empty()) sweeps_double(sn, p.inv_diag.data(), zx, zy, zz, g, m);
-  else sweeps_single(sn, p.inv_diag.data(), zx, zy, zz, g, m);
+  if (sn.values_single.empty()) sweeps_double(sn, p.inv_diag.data(), z4, g, m);
+  else sweeps_single(sn, p.inv_diag.data(), z4, g, m);
   for (int i = 0; i < n; ++i) {
-    const int q = perm[i];
-    x(i, 0) = zx[q]; x(i, 1) = zy[q]; x(i, 2) = zz[q];
+    const double* z = z4 + 4 * static_cast<size_t>(perm[i]);
+    x(i, 0) = z[0]; x(i, 1) = z[1]; x(i, 2) = z[2];
   }
 }
 
@@ -370,16 +498,22 @@ void solve_columns(const SpringPredictor& p, const RowMat3d& b, RowMat3d& dv, Ro
 
 namespace palpate::spring {
 
+size_t dense_scratch(int n) { return 6 * static_cast<size_t>((n + 7) / 8 * 8) + 8; }
+
 void solve_dense(const SpringPredictor& p, const std::vector<float>& inverse_single, const RowMat3d& b, RowMat3d& x,
-                 double* scratch) noexcept {
+                 double* scratch, bool symmetric) noexcept {
   const int n = p.n;
-  double* bx = scratch;
-  double* by = scratch + n;
-  double* bz = scratch + 2 * static_cast<size_t>(n);
+  const size_t N = static_cast<size_t>((n + 7) / 8 * 8);
+  const std::uintptr_t at = reinterpret_cast<std::uintptr_t>(scratch);
+  double* bx = scratch + ((64 - at % 64) % 64) / sizeof(double);  // the first 64-byte boundary
+  double* by = bx + N;
+  double* bz = bx + 2 * N;
   for (int i = 0; i < n; ++i) {
     bx[i] = b(i, 0); by[i] = b(i, 1); bz[i] = b(i, 2);
   }
-  if (inverse_single.empty()) dense_double(p.inverse.data(), n, bx, by, bz, x.data());
+  if (inverse_single.empty() && symmetric && has_avx512())
+    dense_symmetric_avx512(p.inverse.data(), n, bx, bx + 3 * N, N, x.data());
+  else if (inverse_single.empty()) dense_double(p.inverse.data(), n, bx, by, bz, x.data());
   else dense_single(inverse_single.data(), n, bx, by, bz, x.data());
 }
 

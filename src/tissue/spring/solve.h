@@ -26,12 +26,13 @@ Result<SpringPredictor> build_predictor(const SpringNetwork& network, const Spri
 SpringSupernodes make_supernodes(const SpringPredictor& predictor, bool single = false, double max_padding = 0.5,
                                  int max_width = 128);
 
-// Doubles of scratch solve_supernodal needs: (3n + 3·max_height).
+// Doubles of scratch solve_supernodal needs: (4n + 3·max_height).
 size_t supernodal_scratch(const SpringPredictor& predictor, const SpringSupernodes& supernodes);
 
-// x = A⁻¹ b for b, x (n x 3) with A = Pᵀ L D Lᵀ P: permute into structure-of-arrays, forward
-// substitution block by block (gather the block's entries, one axpy per column, scatter), scale by
-// D⁻¹, back substitution (one dot per column), permute back. The three coordinates share every value of L read; float values are
+// x = A⁻¹ b for b, x (n x 3) with A = Pᵀ L D Lᵀ P: permute into four doubles per vertex (x, y, z,
+// 0), forward substitution block by block (narrow blocks in place, one four-wide multiply-add per
+// entry; wide ones gathered into structure-of-arrays, one axpy per column, scattered back), scale
+// by D⁻¹, back substitution (one dot per column), permute back. The three coordinates share every value of L read; float values are
 // widened and accumulated in double. scratch holds
 // supernodal_scratch() doubles. b and x may not alias.
 void solve_supernodal(const SpringPredictor& predictor, const SpringSupernodes& supernodes, const RowMat3d& b,
@@ -41,8 +42,14 @@ void solve_supernodal(const SpringPredictor& predictor, const SpringSupernodes& 
 void solve_columns(const SpringPredictor& predictor, const RowMat3d& b, RowMat3d& x, RowMat3d& scratch) noexcept;
 
 // x = A⁻¹ b with the dense inverse (desbrun): one pass over A⁻¹'s rows for the three coordinates,
-// from inverse_single (float, widened) when it is not empty. scratch holds 3n doubles.
+// from inverse_single (float, widened) when it is not empty. With symmetric (the step's choice)
+// and AVX-512, the double inverse is read from its upper triangle only (A⁻¹ is symmetric, and
+// build_spring_model makes the stored one exactly so): half the bytes, the same sums in another
+// order. scratch holds dense_scratch(n) doubles.
 void solve_dense(const SpringPredictor& predictor, const std::vector<float>& inverse_single, const RowMat3d& b,
-                 RowMat3d& x, double* scratch) noexcept;
+                 RowMat3d& x, double* scratch, bool symmetric = true) noexcept;
+
+// Doubles of scratch solve_dense needs: six arrays of n rounded up to 8, from a 64-byte boundary.
+size_t dense_scratch(int n);
 
 }  // namespace palpate::spring

@@ -46,10 +46,9 @@ void add_spring_forces(const SpringNetwork& net, const RowMat3d& x, const RowMat
 // is_all_pairs order; rest lengths L, stiffnesses K, dampings C, or k, c when uniform):
 //   g = k (1 − L/l) + c (Δv·d)/l²,  f_i += g d,  f_j −= g d,  d = x_j − x_i, l = |d|,
 // the same force as add_spring_forces written with r = 1/l. p is the structure-of-arrays block
-// (x, y, z, vx, vy, vz, fx, fy, fz), n each. Coincident vertices (l² below 1e-30 m²) get no force.
+// (x, y, z, vx, vy, vz, fx, fy, fz), n each, N apart (N ≥ n). Coincident vertices (l² below 1e-30 m²) get no force.
 template <bool Uniform>
-inline void all_pairs_portable(int n, const SpringNetwork& net, double* p) noexcept {
-  const size_t N = static_cast<size_t>(n);
+inline void all_pairs_portable(int n, const SpringNetwork& net, double* p, size_t N) noexcept {
   const double *X = p, *Y = p + N, *Z = p + 2 * N, *VX = p + 3 * N, *VY = p + 4 * N, *VZ = p + 5 * N;
   double *FX = p + 6 * N, *FY = p + 7 * N, *FZ = p + 8 * N;
   size_t e = 0;
@@ -74,8 +73,7 @@ inline void all_pairs_portable(int n, const SpringNetwork& net, double* p) noexc
 // (12 bits) refined by three Newton steps r ← r (3 − l² r²)/2 in double (≈ 48 bits, then rounding):
 // no square root or division in the loop.
 template <bool Uniform>
-__attribute__((target("avx2,fma"))) void all_pairs_avx2(int n, const SpringNetwork& net, double* p) noexcept {
-  const size_t N = static_cast<size_t>(n);
+__attribute__((target("avx2,fma"))) void all_pairs_avx2(int n, const SpringNetwork& net, double* p, size_t N) noexcept {
   const double *X = p, *Y = p + N, *Z = p + 2 * N, *VX = p + 3 * N, *VY = p + 4 * N, *VZ = p + 5 * N;
   double *FX = p + 6 * N, *FY = p + 7 * N, *FZ = p + 8 * N;
   const double* RL = net.rest_length.data();
@@ -132,6 +130,215 @@ __attribute__((target("avx2,fma"))) void all_pairs_avx2(int n, const SpringNetwo
     FX[i] += tx; FY[i] += ty; FZ[i] += tz;
   }
 }
+
+// The same with AVX-512, eight springs at a time and the row's last (n − i − 1) mod 8 springs in
+// one masked pass (no scalar tail). 1/l comes from the double-precision estimate rsqrt14 (relative
+// error below 2⁻¹⁴) and two Newton steps r ← r (3 − l² r²)/2: the error e becomes ≈ 1.5 e² per
+// step, 2⁻¹⁴ → 2⁻²⁷ → 2⁻⁵³, i.e. rounding, the same accuracy as the AVX2 kernel's three steps
+// from the 12-bit float estimate.
+// GCC 12's AVX-512 intrinsics pass _mm512_undefined_pd() (a self-initialised variable) as the
+// unused merge source, which -Wmaybe-uninitialized reports at every use: a false positive.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// Eight doubles from a (a vertex array at the block's first j), or only the lanes in m (the others
+// zero) when the block is not full.
+template <bool Full>
+__attribute__((target("avx512f"), always_inline)) inline __m512d load8(__mmask8 m, const double* a) noexcept {
+  return Full ? _mm512_loadu_pd(a) : _mm512_maskz_loadu_pd(m, a);
+}
+
+// The same for a per-spring array from the block's first spring e: consecutive values into the
+// lanes of m (contiguous), the first into its lowest lane.
+template <bool Full>
+__attribute__((target("avx512f"), always_inline)) inline __m512d load8_springs(__mmask8 m, const double* a) noexcept {
+  return Full ? _mm512_loadu_pd(a) : _mm512_maskz_expandloadu_pd(m, a);
+}
+
+template <bool Uniform, bool Full>
+__attribute__((target("avx512f"), always_inline)) inline void all_pairs_avx512_block(
+    const double* X, const double* Y, const double* Z, const double* VX, const double* VY, const double* VZ,
+    double* FX, double* FY, double* FZ, const double* RL, const double* KS, const double* CS, size_t e, int j,
+    __mmask8 m, __m512d xi, __m512d yi, __m512d zi, __m512d vxi, __m512d vyi, __m512d vzi, __m512d& sx,
+    __m512d& sy, __m512d& sz) noexcept {
+  const __m512d half = _mm512_set1_pd(0.5), three = _mm512_set1_pd(3.0), tiny = _mm512_set1_pd(1e-30);
+  const __m512d dx = _mm512_sub_pd(load8<Full>(m, X + j), xi);
+  const __m512d dy = _mm512_sub_pd(load8<Full>(m, Y + j), yi);
+  const __m512d dz = _mm512_sub_pd(load8<Full>(m, Z + j), zi);
+  const __m512d l2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
+  const __mmask8 ok = _mm512_mask_cmp_pd_mask(m, l2, tiny, _CMP_GE_OQ);
+  const __m512d l2c = _mm512_max_pd(l2, tiny);
+  __m512d r = _mm512_rsqrt14_pd(l2c);
+  for (int it = 0; it < 2; ++it)
+    r = _mm512_mul_pd(_mm512_mul_pd(half, r), _mm512_fnmadd_pd(_mm512_mul_pd(l2c, r), r, three));
+  const __m512d k = Uniform ? _mm512_set1_pd(KS[0]) : load8_springs<Full>(m, KS + e);
+  const __m512d c = Uniform ? _mm512_set1_pd(CS[0]) : load8_springs<Full>(m, CS + e);
+  const __m512d dvd = _mm512_fmadd_pd(
+      _mm512_sub_pd(load8<Full>(m, VZ + j), vzi), dz,
+      _mm512_fmadd_pd(_mm512_sub_pd(load8<Full>(m, VY + j), vyi), dy, _mm512_mul_pd(_mm512_sub_pd(load8<Full>(m, VX + j), vxi), dx)));
+  // g = k − k L r + c (Δv·d) r², zero where the vertices coincide and in the lanes past the row.
+  __m512d g = _mm512_fnmadd_pd(_mm512_mul_pd(k, load8_springs<Full>(m, RL + e)), r, k);
+  g = _mm512_fmadd_pd(_mm512_mul_pd(c, dvd), _mm512_mul_pd(r, r), g);
+  g = _mm512_maskz_mov_pd(ok, g);
+  const __m512d fx = _mm512_mul_pd(g, dx), fy = _mm512_mul_pd(g, dy), fz = _mm512_mul_pd(g, dz);
+  sx = _mm512_add_pd(sx, fx); sy = _mm512_add_pd(sy, fy); sz = _mm512_add_pd(sz, fz);
+  if (Full) {
+    _mm512_storeu_pd(FX + j, _mm512_sub_pd(_mm512_loadu_pd(FX + j), fx));
+    _mm512_storeu_pd(FY + j, _mm512_sub_pd(_mm512_loadu_pd(FY + j), fy));
+    _mm512_storeu_pd(FZ + j, _mm512_sub_pd(_mm512_loadu_pd(FZ + j), fz));
+  } else {
+    _mm512_mask_storeu_pd(FX + j, m, _mm512_sub_pd(_mm512_maskz_loadu_pd(m, FX + j), fx));
+    _mm512_mask_storeu_pd(FY + j, m, _mm512_sub_pd(_mm512_maskz_loadu_pd(m, FY + j), fy));
+    _mm512_mask_storeu_pd(FZ + j, m, _mm512_sub_pd(_mm512_maskz_loadu_pd(m, FZ + j), fz));
+  }
+}
+
+// One row's share of a block of eight columns j: the force g d on each vertex j from row vertex i
+// (lanes in m; the others zero), added to the row's sums and to f (the block's total, subtracted
+// from f_j by the caller).
+struct AllPairsRow {
+  __m512d xi, yi, zi, vxi, vyi, vzi, sx, sy, sz;
+};
+
+template <bool Uniform>
+__attribute__((target("avx512f"), always_inline)) inline void all_pairs_avx512_row(
+    __m512d xj, __m512d yj, __m512d zj, __m512d vxj, __m512d vyj, __m512d vzj, __mmask8 m, __m512d rl, __m512d k,
+    __m512d c, AllPairsRow& row, __m512d& fx, __m512d& fy, __m512d& fz) noexcept {
+  const __m512d half = _mm512_set1_pd(0.5), three = _mm512_set1_pd(3.0), tiny = _mm512_set1_pd(1e-30);
+  const __m512d dx = _mm512_sub_pd(xj, row.xi), dy = _mm512_sub_pd(yj, row.yi), dz = _mm512_sub_pd(zj, row.zi);
+  const __m512d l2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
+  const __mmask8 ok = _mm512_mask_cmp_pd_mask(m, l2, tiny, _CMP_GE_OQ);
+  const __m512d l2c = _mm512_max_pd(l2, tiny);
+  __m512d r = _mm512_rsqrt14_pd(l2c);
+  for (int it = 0; it < 2; ++it)
+    r = _mm512_mul_pd(_mm512_mul_pd(half, r), _mm512_fnmadd_pd(_mm512_mul_pd(l2c, r), r, three));
+  const __m512d dvd = _mm512_fmadd_pd(
+      _mm512_sub_pd(vzj, row.vzi), dz,
+      _mm512_fmadd_pd(_mm512_sub_pd(vyj, row.vyi), dy, _mm512_mul_pd(_mm512_sub_pd(vxj, row.vxi), dx)));
+  __m512d g = _mm512_fnmadd_pd(_mm512_mul_pd(k, rl), r, k);
+  g = _mm512_fmadd_pd(_mm512_mul_pd(c, dvd), _mm512_mul_pd(r, r), g);
+  g = _mm512_maskz_mov_pd(ok, g);
+  const __m512d gx = _mm512_mul_pd(g, dx), gy = _mm512_mul_pd(g, dy), gz = _mm512_mul_pd(g, dz);
+  row.sx = _mm512_add_pd(row.sx, gx); row.sy = _mm512_add_pd(row.sy, gy); row.sz = _mm512_add_pd(row.sz, gz);
+  fx = _mm512_add_pd(fx, gx); fy = _mm512_add_pd(fy, gy); fz = _mm512_add_pd(fz, gz);
+}
+
+// A row's per-spring value for a block: Mode 0, the row's first block (values from a into the lanes
+// of m, which start past lane 0: expand-load); 1, a full block; 2, the row's last (lanes from 0).
+template <int Mode>
+__attribute__((target("avx512f"), always_inline)) inline __m512d all_pairs_spring_values(__mmask8 m,
+                                                                                          const double* a) noexcept {
+  if constexpr (Mode == 0) return _mm512_maskz_expandloadu_pd(m, a);
+  else if constexpr (Mode == 1) return _mm512_loadu_pd(a);
+  else return _mm512_maskz_loadu_pd(m, a);
+}
+
+// Two rows i, i + 1 against one aligned block of eight columns j: the vertex values at j are loaded,
+// and f_j loaded and stored, once for both. ea, eb: the index of row a's, b's spring at the
+// block's first lane it holds (Mode 0) or at lane 0 (Modes 1, 2).
+template <bool Uniform, int Mode>
+__attribute__((target("avx512f"), always_inline)) inline void all_pairs_avx512_two(
+    const double* X, const double* Y, const double* Z, const double* VX, const double* VY, const double* VZ,
+    double* FX, double* FY, double* FZ, const double* RL, const double* KS, const double* CS, int j, size_t ea,
+    size_t eb, __mmask8 ma, __mmask8 mb, AllPairsRow& a, AllPairsRow& b) noexcept {
+  const __mmask8 m = static_cast<__mmask8>(ma | mb);
+#define PALPATE_LOADJ(q) (Mode == 1 ? _mm512_load_pd(q) : _mm512_maskz_load_pd(m, q))
+  const __m512d xj = PALPATE_LOADJ(X + j), yj = PALPATE_LOADJ(Y + j), zj = PALPATE_LOADJ(Z + j);
+  const __m512d vxj = PALPATE_LOADJ(VX + j), vyj = PALPATE_LOADJ(VY + j), vzj = PALPATE_LOADJ(VZ + j);
+#undef PALPATE_LOADJ
+  __m512d fx = _mm512_setzero_pd(), fy = fx, fz = fx;
+  const __m512d ka = Uniform ? _mm512_set1_pd(KS[0]) : all_pairs_spring_values<Mode>(ma, KS + ea);
+  const __m512d ca = Uniform ? _mm512_set1_pd(CS[0]) : all_pairs_spring_values<Mode>(ma, CS + ea);
+  all_pairs_avx512_row<Uniform>(xj, yj, zj, vxj, vyj, vzj, ma, all_pairs_spring_values<Mode>(ma, RL + ea), ka, ca, a,
+                                fx, fy, fz);
+  const __m512d kb = Uniform ? _mm512_set1_pd(KS[0]) : all_pairs_spring_values<Mode>(mb, KS + eb);
+  const __m512d cb = Uniform ? _mm512_set1_pd(CS[0]) : all_pairs_spring_values<Mode>(mb, CS + eb);
+  all_pairs_avx512_row<Uniform>(xj, yj, zj, vxj, vyj, vzj, mb, all_pairs_spring_values<Mode>(mb, RL + eb), kb, cb, b,
+                                fx, fy, fz);
+  if (Mode == 1) {
+    _mm512_store_pd(FX + j, _mm512_sub_pd(_mm512_load_pd(FX + j), fx));
+    _mm512_store_pd(FY + j, _mm512_sub_pd(_mm512_load_pd(FY + j), fy));
+    _mm512_store_pd(FZ + j, _mm512_sub_pd(_mm512_load_pd(FZ + j), fz));
+  } else {
+    _mm512_mask_store_pd(FX + j, m, _mm512_sub_pd(_mm512_maskz_load_pd(m, FX + j), fx));
+    _mm512_mask_store_pd(FY + j, m, _mm512_sub_pd(_mm512_maskz_load_pd(m, FY + j), fy));
+    _mm512_mask_store_pd(FZ + j, m, _mm512_sub_pd(_mm512_maskz_load_pd(m, FZ + j), fz));
+  }
+}
+
+// p must be 64-byte aligned and N a multiple of 8: every block then starts at a multiple of 8,
+// so its loads and stores of x … fz are aligned (unaligned 512-bit accesses split across two cache
+// lines, which cost more than the arithmetic); a row's first block is masked below j = i + 1 and
+// its rest lengths (per-spring arrays start at the row's first spring, not aligned) expand-loaded.
+// Rows go two at a time, sharing each block's loads of x … vz and its load and store of f.
+template <bool Uniform>
+__attribute__((target("avx512f"))) void all_pairs_avx512(int n, const SpringNetwork& net, double* p, size_t N) noexcept {
+  const double *X = p, *Y = p + N, *Z = p + 2 * N, *VX = p + 3 * N, *VY = p + 4 * N, *VZ = p + 5 * N;
+  double *FX = p + 6 * N, *FY = p + 7 * N, *FZ = p + 8 * N;
+  const double* RL = net.rest_length.data();
+  const double* KS = net.stiffness.data();
+  const double* CS = net.damping.data();
+  size_t e = 0;
+  int i = 0;
+  // Rows two at a time: row i + 1's springs start n − i − 1 after row i's.
+  for (; i + 2 < n; i += 2) {
+#define PALPATE_ROW(q)                                                                                      \
+  AllPairsRow{_mm512_set1_pd(X[q]),  _mm512_set1_pd(Y[q]),  _mm512_set1_pd(Z[q]),  _mm512_set1_pd(VX[q]), \
+              _mm512_set1_pd(VY[q]), _mm512_set1_pd(VZ[q]), _mm512_setzero_pd(),   _mm512_setzero_pd(),   \
+              _mm512_setzero_pd()}
+    AllPairsRow a = PALPATE_ROW(i), b = PALPATE_ROW(i + 1);
+#undef PALPATE_ROW
+    const size_t eb = e + static_cast<size_t>(n - i - 1);  // row i + 1's first spring (i + 1, i + 2)
+    const int j0 = (i + 1) & ~7;
+    const int hi = std::min(8, n - j0);
+    auto lanes_from = [hi](int lo) {
+      return lo >= 8 ? __mmask8{0} : static_cast<__mmask8>(((1u << hi) - 1) & ~((1u << lo) - 1));
+    };
+    all_pairs_avx512_two<Uniform, 0>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, j0, e, eb, lanes_from(i + 1 - j0),
+                                     lanes_from(i + 2 - j0), a, b);
+    // Spring index at lane 0 of the block at j: row i's at e + (j − i − 1), row i + 1's at eb + (j − i − 2).
+    int j = j0 + 8;
+    for (; j + 8 <= n; j += 8)
+      all_pairs_avx512_two<Uniform, 1>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, j,
+                                       e + static_cast<size_t>(j - i - 1), eb + static_cast<size_t>(j - i - 2), 0xFF,
+                                       0xFF, a, b);
+    if (j < n) {
+      const __mmask8 m = static_cast<__mmask8>((1u << (n - j)) - 1);
+      all_pairs_avx512_two<Uniform, 2>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, j,
+                                       e + static_cast<size_t>(j - i - 1), eb + static_cast<size_t>(j - i - 2), m, m,
+                                       a, b);
+    }
+    FX[i] += _mm512_reduce_add_pd(a.sx); FY[i] += _mm512_reduce_add_pd(a.sy); FZ[i] += _mm512_reduce_add_pd(a.sz);
+    FX[i + 1] += _mm512_reduce_add_pd(b.sx); FY[i + 1] += _mm512_reduce_add_pd(b.sy);
+    FZ[i + 1] += _mm512_reduce_add_pd(b.sz);
+    e = eb + static_cast<size_t>(n - i - 2);
+  }
+  for (; i + 1 < n; ++i) {  // the last row when n − 1 is odd
+    const __m512d xi = _mm512_set1_pd(X[i]), yi = _mm512_set1_pd(Y[i]), zi = _mm512_set1_pd(Z[i]);
+    const __m512d vxi = _mm512_set1_pd(VX[i]), vyi = _mm512_set1_pd(VY[i]), vzi = _mm512_set1_pd(VZ[i]);
+    __m512d sx = _mm512_setzero_pd(), sy = sx, sz = sx;
+    // First block: lanes j = i + 1 … within [j0, j0 + 8) and below n.
+    const int j0 = (i + 1) & ~7;
+    const int lo = i + 1 - j0, hi = std::min(8, n - j0);
+    const __mmask8 m0 = static_cast<__mmask8>(((1u << hi) - 1) & ~((1u << lo) - 1));
+    all_pairs_avx512_block<Uniform, false>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, e, j0, m0, xi, yi, zi, vxi,
+                                           vyi, vzi, sx, sy, sz);
+    e += static_cast<size_t>(hi - lo);
+    int j = j0 + 8;
+    for (; j + 8 <= n; j += 8, e += 8)
+      all_pairs_avx512_block<Uniform, true>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, e, j, 0xFF, xi, yi, zi, vxi,
+                                            vyi, vzi, sx, sy, sz);
+    if (j < n) {
+      const int left = n - j;  // 1 … 7
+      const __mmask8 m = static_cast<__mmask8>((1u << left) - 1);
+      all_pairs_avx512_block<Uniform, false>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, e, j, m, xi, yi, zi, vxi,
+                                             vyi, vzi, sx, sy, sz);
+      e += static_cast<size_t>(left);
+    }
+    FX[i] += _mm512_reduce_add_pd(sx); FY[i] += _mm512_reduce_add_pd(sy); FZ[i] += _mm512_reduce_add_pd(sz);
+  }
+}
+
+#pragma GCC diagnostic pop
 
 // The uniform all-pairs forces in single precision (SpringModelOptions::single_precision), eight
 // springs at a time: 1/l from the reciprocal square root estimate and one Newton step (≈ 23 bits).
@@ -193,20 +400,29 @@ __attribute__((target("avx2,fma"))) void all_pairs_avx2_single(int n, const floa
 
 using spring::has_avx2_fma;
 
-void all_pairs_rows(const SpringNetwork& net, bool uniform, double* p) noexcept {
+using spring::has_avx512;
+
+void all_pairs_rows(const SpringNetwork& net, bool uniform, double* p, size_t N,
+                    spring::SpringKernel kernel = spring::SpringKernel::best) noexcept {
+  using spring::SpringKernel;
   const int n = static_cast<int>(net.size());
-  if (has_avx2_fma()) {
-    if (uniform) all_pairs_avx2<true>(n, net, p);
-    else all_pairs_avx2<false>(n, net, p);
+  const bool best = kernel == SpringKernel::best;
+  const bool aligned = reinterpret_cast<std::uintptr_t>(p) % 64 == 0 && N % 8 == 0;
+  if ((best || kernel == SpringKernel::avx512) && aligned && has_avx512()) {
+    if (uniform) all_pairs_avx512<true>(n, net, p, N);
+    else all_pairs_avx512<false>(n, net, p, N);
+  } else if (kernel != SpringKernel::scalar && has_avx2_fma()) {
+    if (uniform) all_pairs_avx2<true>(n, net, p, N);
+    else all_pairs_avx2<false>(n, net, p, N);
   } else {
-    if (uniform) all_pairs_portable<true>(n, net, p);
-    else all_pairs_portable<false>(n, net, p);
+    if (uniform) all_pairs_portable<true>(n, net, p, N);
+    else all_pairs_portable<false>(n, net, p, N);
   }
 }
 
 // The same forces for every pair (the seed paper's topology), on structure-of-arrays copies so the
-// inner loop over j > i is contiguous and vectorised. soa is (10n): x, y, z, vx, vy, vz, fx, fy, fz
-// (and one spare), each n long, in s.soa; with the model's single-precision rest lengths (and AVX2)
+// inner loop over j > i is contiguous and vectorised. s.soa holds all_pairs_scratch() doubles: x, y,
+// z, vx, vy, vz, fx, fy, fz, each n long, all_pairs_stride(n) apart from its first 64-byte boundary; with the model's single-precision rest lengths (and AVX2)
 // the float kernel on s.soa_single instead.
 void add_all_pair_forces(const SpringModel& model, const RowMat3d& x, const RowMat3d& v, RowMat3d& f,
                          SpringState& s) noexcept {
@@ -226,15 +442,15 @@ void add_all_pair_forces(const SpringModel& model, const RowMat3d& x, const RowM
     f.col(0).array() += FX.cast<double>(); f.col(1).array() += FY.cast<double>(); f.col(2).array() += FZ.cast<double>();
     return;
   }
-  std::vector<double>& soa = s.soa;
   using Arr = Eigen::Map<Eigen::ArrayXd>;
-  double* p = soa.data();
-  Arr X(p, n), Y(p + n, n), Z(p + 2 * n, n), VX(p + 3 * n, n), VY(p + 4 * n, n), VZ(p + 5 * n, n);
-  Arr FX(p + 6 * n, n), FY(p + 7 * n, n), FZ(p + 8 * n, n);
+  const Eigen::Index N = static_cast<Eigen::Index>(spring::all_pairs_stride(static_cast<size_t>(n)));
+  double* p = spring::align64(s.soa.data());
+  Arr X(p, n), Y(p + N, n), Z(p + 2 * N, n), VX(p + 3 * N, n), VY(p + 4 * N, n), VZ(p + 5 * N, n);
+  Arr FX(p + 6 * N, n), FY(p + 7 * N, n), FZ(p + 8 * N, n);
   X = x.col(0).array(); Y = x.col(1).array(); Z = x.col(2).array();
   VX = v.col(0).array(); VY = v.col(1).array(); VZ = v.col(2).array();
   FX.setZero(); FY.setZero(); FZ.setZero();
-  all_pairs_rows(net, uniform, p);
+  all_pairs_rows(net, uniform, p, static_cast<size_t>(N));
   f.col(0).array() += FX; f.col(1).array() += FY; f.col(2).array() += FZ;
 }
 
@@ -572,6 +788,24 @@ namespace palpate::spring {
 // haptic thread. libgcc fills the CPU model when it loads, so reading it is a few loads.
 bool has_avx2_fma() noexcept { return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"); }
 
+bool has_avx512() noexcept {
+  return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && has_avx2_fma();
+}
+
+void add_all_pair_forces_soa(const SpringNetwork& net, bool uniform, double* p, size_t stride,
+                             SpringKernel kernel) noexcept {
+  all_pairs_rows(net, uniform, p, stride, kernel);
+}
+
+size_t all_pairs_stride(size_t n) noexcept { return (n + 7) / 8 * 8; }
+
+size_t all_pairs_scratch(size_t n) noexcept { return 9 * all_pairs_stride(n) + 8; }
+
+double* align64(double* p) noexcept {
+  const std::uintptr_t at = reinterpret_cast<std::uintptr_t>(p);
+  return p + ((64 - at % 64) % 64) / sizeof(double);
+}
+
 size_t spring_pass_scratch(const SpringModel& model) { return 16 * model.network.size() + 3; }
 
 namespace {
@@ -666,14 +900,76 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
   }
 }
 
+// The same with AVX-512 VL (256-bit registers): 1/l without the divider.
+__attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(const SpringNetwork& net, double h, const double* x4,
+                                                           const double* v4, double* f4, double* r4) noexcept {
+  const size_t s = net.springs.size();
+  const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
+  const __m256d hv = _mm256_set1_pd(h), zero = _mm256_setzero_pd();
+  const __m256d half = _mm256_set1_pd(0.5), three = _mm256_set1_pd(3.0);
+  size_t e = 0;
+  for (; e + 4 <= s; e += 4) {
+    size_t a[4], b[4];
+    __m256d d[4], w[4];
+    for (int q = 0; q < 4; ++q) {
+      a[q] = 4 * static_cast<size_t>(net.springs[e + q][0]);
+      b[q] = 4 * static_cast<size_t>(net.springs[e + q][1]);
+      d[q] = _mm256_sub_pd(_mm256_load_pd(x4 + b[q]), _mm256_load_pd(x4 + a[q]));
+      w[q] = _mm256_sub_pd(_mm256_load_pd(v4 + b[q]), _mm256_load_pd(v4 + a[q]));
+    }
+    const __m256d l2 = hsum4(_mm256_mul_pd(d[0], d[0]), _mm256_mul_pd(d[1], d[1]), _mm256_mul_pd(d[2], d[2]),
+                             _mm256_mul_pd(d[3], d[3]));
+    const __m256d dw = hsum4(_mm256_mul_pd(d[0], w[0]), _mm256_mul_pd(d[1], w[1]), _mm256_mul_pd(d[2], w[2]),
+                             _mm256_mul_pd(d[3], w[3]));
+    // 1/l from rsqrt14 (relative error below 2⁻¹⁴) and two Newton steps (to round-off, see
+    // all_pairs_avx512): no square root or division; g = k (1 − L r) + c (d·w) r².
+    const __m256d ok = _mm256_cmp_pd(l2, zero, _CMP_GT_OQ);  // l > 0 (false for NaN), as the scalar loop
+    __m256d r = _mm256_rsqrt14_pd(l2);
+    for (int it = 0; it < 2; ++it)
+      r = _mm256_mul_pd(_mm256_mul_pd(half, r), _mm256_fnmadd_pd(_mm256_mul_pd(l2, r), r, three));
+    const __m256d k = _mm256_loadu_pd(K + e);
+    __m256d g = _mm256_fnmadd_pd(_mm256_mul_pd(k, _mm256_loadu_pd(L + e)), r, k);
+    g = _mm256_fmadd_pd(_mm256_mul_pd(_mm256_loadu_pd(C + e), dw), _mm256_mul_pd(r, r), g);
+    g = _mm256_and_pd(g, ok);
+    const __m256d kh = _mm256_mul_pd(hv, k);
+    const __m256d gq[4] = {_mm256_permute4x64_pd(g, 0x00), _mm256_permute4x64_pd(g, 0x55),
+                           _mm256_permute4x64_pd(g, 0xAA), _mm256_permute4x64_pd(g, 0xFF)};
+    const __m256d kq[4] = {_mm256_permute4x64_pd(kh, 0x00), _mm256_permute4x64_pd(kh, 0x55),
+                           _mm256_permute4x64_pd(kh, 0xAA), _mm256_permute4x64_pd(kh, 0xFF)};
+    for (int q = 0; q < 4; ++q) {
+      const __m256d fd = _mm256_mul_pd(gq[q], d[q]);
+      const __m256d rw = _mm256_mul_pd(kq[q], w[q]);
+      _mm256_store_pd(r4 + a[q], _mm256_add_pd(_mm256_load_pd(r4 + a[q]), rw));
+      _mm256_store_pd(r4 + b[q], _mm256_sub_pd(_mm256_load_pd(r4 + b[q]), rw));
+      _mm256_store_pd(f4 + a[q], _mm256_add_pd(_mm256_load_pd(f4 + a[q]), fd));
+      _mm256_store_pd(f4 + b[q], _mm256_sub_pd(_mm256_load_pd(f4 + b[q]), fd));
+    }
+  }
+  for (; e < s; ++e) {  // the last s mod 4 springs
+    const size_t i = 4 * static_cast<size_t>(net.springs[e][0]), j = 4 * static_cast<size_t>(net.springs[e][1]);
+    const double dx = x4[j] - x4[i], dy = x4[j + 1] - x4[i + 1], dz = x4[j + 2] - x4[i + 2];
+    const double wx = v4[j] - v4[i], wy = v4[j + 1] - v4[i + 1], wz = v4[j + 2] - v4[i + 2];
+    const double kh = h * K[e];
+    r4[i] += kh * wx; r4[i + 1] += kh * wy; r4[i + 2] += kh * wz;
+    r4[j] -= kh * wx; r4[j + 1] -= kh * wy; r4[j + 2] -= kh * wz;
+    const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
+    if (!(l > 0)) continue;
+    const double inv_l = 1.0 / l;
+    const double g = (K[e] * (l - L[e]) + C[e] * (wx * dx + wy * dy + wz * dz) * inv_l) * inv_l;
+    f4[i] += g * dx; f4[i + 1] += g * dy; f4[i + 2] += g * dz;
+    f4[j] -= g * dx; f4[j + 1] -= g * dy; f4[j + 2] -= g * dz;
+  }
+}
+
 }  // namespace
 
 void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat3d& x, const RowMat3d& v,
-                                          RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised) noexcept {
+                                          RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised,
+                                          SpringKernel kernel) noexcept {
   const SpringNetwork& net = model.network;
   const double h = model.options.dt;
   const size_t n = net.size();
-  if (!vectorised || !has_avx2_fma() || net.springs.empty() || scratch == nullptr) {
+  if (!vectorised || kernel == SpringKernel::scalar || !has_avx2_fma() || net.springs.empty() || scratch == nullptr) {
     spring_pass_scalar(net, h, x.data(), v.data(), f.data(), r.data());
     return;
   }
@@ -688,7 +984,10 @@ void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat
     v4[4 * i] = vd[3 * i]; v4[4 * i + 1] = vd[3 * i + 1]; v4[4 * i + 2] = vd[3 * i + 2]; v4[4 * i + 3] = 0;
   }
   std::fill(f4, f4 + 8 * n, 0.0);  // f4 and r4
-  spring_pass_avx2(net, h, x4, v4, f4, r4);
+  if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512())
+    spring_pass_avx512(net, h, x4, v4, f4, r4);
+  else
+    spring_pass_avx2(net, h, x4, v4, f4, r4);
   double* fd = f.data();
   double* rd = r.data();
   for (size_t i = 0; i < n; ++i)
