@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -117,6 +118,19 @@ struct SpringPredictor {
   bool empty() const { return inverse.empty() && value.empty() && inv_diag.empty(); }
 };
 
+// std::allocator's job on 64-byte boundaries (a cache line, an AVX-512 register), so that blocks of
+// values laid out on multiples of eight doubles are aligned loads.
+template <typename T>
+struct CacheLineAllocator {
+  using value_type = T;
+  CacheLineAllocator() noexcept = default;
+  template <typename U>
+  CacheLineAllocator(const CacheLineAllocator<U>&) noexcept {}  // NOLINT(google-explicit-constructor)
+  T* allocate(std::size_t count) { return static_cast<T*>(::operator new(count * sizeof(T), std::align_val_t{64})); }
+  void deallocate(T* p, std::size_t count) noexcept { ::operator delete(p, count * sizeof(T), std::align_val_t{64}); }
+  friend bool operator==(const CacheLineAllocator&, const CacheLineAllocator&) noexcept { return true; }
+};
+
 // The per-tick form of a sparse predictor's factor L (unit lower triangular, permuted), derived
 // from SpringPredictor when the model is built and never stored in files. Runs of consecutive
 // columns with (nearly) the same rows below them form a supernode (Liu, Ng & Peyton 1993; relaxed:
@@ -127,11 +141,15 @@ struct SpringSupernodes {
   std::vector<int> first_column;  // (S + 1) supernode k holds columns [first_column[k], first_column[k + 1])
   std::vector<int> row_start;     // (S + 1) its rows below the block: rows[row_start[k] .. row_start[k + 1])
   std::vector<int> rows;          // permuted row indices below each supernode, ascending
-  std::vector<size_t> value_start;  // (S + 1) its values, column by column: column i of a block of
-                                    // width w holds its w − 1 − i entries in the block's triangle,
-                                    // then its r entries in the rows below (zeros where L has none)
-  std::vector<double> values;     // L's entries in that layout
-  std::vector<float> values_single;  // the same in float instead (SpringModelOptions::single_precision)
+  std::vector<size_t> value_start;  // (S + 1) its values (zeros where L has none): a narrow block
+                                    // column by column, column i of width w holding its w − 1 − i
+                                    // entries in the block's triangle, then its r entries in the rows
+                                    // below; a wide one (4 columns or more) from a multiple of eight,
+                                    // its triangle so, then its rows below in panels of eight rows
+                                    // (solve.cpp, panel_offset)
+  std::vector<double, CacheLineAllocator<double>> values;  // L's entries in that layout
+  std::vector<float, CacheLineAllocator<float>> values_single;  // the same in float instead
+                                                                 // (SpringModelOptions::single_precision)
   int max_width = 0;              // widest supernode
   int max_height = 0;             // tallest supernode, width + rows below (sizes the solve's scratch)
   bool empty() const { return first_column.empty(); }

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <iterator>
+#include <type_traits>
 
 #include <immintrin.h>
 
@@ -16,7 +17,26 @@ namespace {
 // Four doubles: one AVX register in the avx2 clone, two SSE2 registers in the default one.
 typedef double d4 __attribute__((vector_size(32)));
 
+// Eight doubles: one AVX-512 register in the x86-64-v4 build, two AVX ones in the v3 build.
 typedef double d8 __attribute__((vector_size(64)));
+typedef float f8 __attribute__((vector_size(32)));
+
+// (Macros, not functions: no vector type crosses a function boundary, which would tie the ABI to
+// AVX.) LOAD8 widens float values to double: every accumulation is in double.
+#define PALPATE_LOAD4(v, p) \
+  d4 v;                     \
+  std::memcpy(&v, (p), sizeof v)
+#define PALPATE_STORE4(p, v) std::memcpy((p), &(v), sizeof(d4))
+#define PALPATE_LOAD8(T, v, p)                 \
+  d8 v;                                        \
+  if constexpr (std::is_same_v<T, float>) {    \
+    f8 v##_f;                                  \
+    std::memcpy(&v##_f, (p), sizeof v##_f);    \
+    v = __builtin_convertvector(v##_f, d8);    \
+  } else {                                     \
+    std::memcpy(&v, (p), sizeof v);            \
+  }
+#define PALPATE_HSUM8(s) (((s)[0] + (s)[1]) + ((s)[2] + (s)[3])) + (((s)[4] + (s)[5]) + ((s)[6] + (s)[7]))
 
 // (t0, t1, t2) = Σ_j a[j] (x[j], y[j], z[j]), j < w: one read of a for the three coordinates.
 // T is the stored value type (double, or float widened to double: accumulation is in double).
@@ -24,14 +44,12 @@ typedef double d8 __attribute__((vector_size(64)));
 template <typename T, bool Wide = false>
 __attribute__((always_inline)) inline void dot3(const T* a, const double* x, const double* y, const double* z, int w,
                                                 double& t0, double& t1, double& t2) noexcept {
-  // (No d4 crosses a function boundary: that would tie the ABI to AVX.)
   int j = 0;
   double r0 = 0, r1 = 0, r2 = 0;
   if constexpr (Wide) {
     d8 s0 = {0, 0, 0, 0, 0, 0, 0, 0}, s1 = s0, s2 = s0;
     for (; j + 8 <= w; j += 8) {
-      d8 v;
-      for (int q = 0; q < 8; ++q) v[q] = static_cast<double>(a[j + q]);
+      PALPATE_LOAD8(T, v, a + j);
       d8 vx, vy, vz;
       std::memcpy(&vx, x + j, sizeof vx);
       std::memcpy(&vy, y + j, sizeof vy);
@@ -40,9 +58,9 @@ __attribute__((always_inline)) inline void dot3(const T* a, const double* x, con
       s1 += v * vy;
       s2 += v * vz;
     }
-    r0 = ((s0[0] + s0[1]) + (s0[2] + s0[3])) + ((s0[4] + s0[5]) + (s0[6] + s0[7]));
-    r1 = ((s1[0] + s1[1]) + (s1[2] + s1[3])) + ((s1[4] + s1[5]) + (s1[6] + s1[7]));
-    r2 = ((s2[0] + s2[1]) + (s2[2] + s2[3])) + ((s2[4] + s2[5]) + (s2[6] + s2[7]));
+    r0 = PALPATE_HSUM8(s0);
+    r1 = PALPATE_HSUM8(s1);
+    r2 = PALPATE_HSUM8(s2);
   }
   d4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
   for (; j + 4 <= w; j += 4) {
@@ -68,25 +86,42 @@ __attribute__((always_inline)) inline void dot3(const T* a, const double* x, con
   t0 = r0; t1 = r1; t2 = r2;
 }
 
-// Blocks narrower than this are solved in place; wider ones are gathered first.
+// Blocks narrower than this are solved in place; wider ones through t and b (see sweeps).
 constexpr size_t kGatherWidth = 4;
 
-// Offset of column i's values inside a block of width w with r rows below: columns are stored one
-// after the other, column i holding its w − 1 − i triangle entries and then its r block entries.
+inline size_t round8(size_t x) noexcept { return (x + 7) & ~static_cast<size_t>(7); }
+
+// Offset of column i's values inside a narrow block of width w with r rows below: columns are
+// stored one after the other, column i holding its w − 1 − i triangle entries and then its r block
+// entries. In a wide block, column_offset(i, w, 0) is column i's start in the block's triangle.
 inline size_t column_offset(size_t i, size_t w, size_t r) noexcept { return i * (w - 1 + r) - i * (i - 1) / 2; }
 
-// (Macros, not functions: no d4 crosses a function boundary, see dot3.)
-#define PALPATE_LOAD4(v, p) \
-  d4 v;                     \
-  std::memcpy(&v, (p), sizeof v)
-#define PALPATE_STORE4(p, v) std::memcpy((p), &(v), sizeof(d4))
+// A wide block (w ≥ kGatherWidth, r rows below) starts at a multiple of eight values: its
+// triangle as above, zeros up to the next multiple of eight, then its rows below. Those are split
+// into groups of eight columns (the last of four or eight, zero columns added to make the width a
+// multiple of four) and each group into panels of eight rows (the last padded with zero rows), a
+// panel holding its columns one after the other, eight values each: row q of column c is at
+// panel_offset(w) + c0·r8 + (q / 8)·8g + 8(c − c0) + q % 8 for a group of width g from column c0
+// and r8 = r rounded up to 8. Both products over the rows below then read the block from start to
+// end, and each column's eight rows are one aligned load.
+inline size_t panel_offset(size_t w) noexcept { return round8(w * (w - 1) / 2); }
+inline size_t round4(size_t x) noexcept { return (x + 3) & ~static_cast<size_t>(3); }
+inline size_t wide_block_size(size_t w, size_t r) noexcept { return panel_offset(w) + round8(r) * round4(w); }
+inline size_t group_width(size_t c0, size_t w) noexcept { return round4(w) - c0 >= 8 ? 8 : 4; }
+inline size_t panel_entry(size_t w, size_t r, size_t q, size_t c) noexcept {
+  const size_t c0 = c / 8 * 8, g = group_width(c0, w);
+  return panel_offset(w) + c0 * round8(r) + (q / 8) * 8 * g + 8 * (c - c0) + q % 8;
+}
 
 // Forward substitution L y = b, then y ← D⁻¹ y, then back substitution Lᵀ x = y, in place on the
 // right-hand side z4, (4n): each vertex's x, y, z and a zero, so a narrow block updates the three
-// coordinates of a row with one four-wide multiply-add per entry of L, in place. A wider block's
-// entries of z (its own columns, then its rows below) are gathered into g (3 arrays of stride
-// m = max block height) first, so every column of the block is one contiguous axpy (forward) or
-// dot (back) over g, and scattered back.
+// coordinates of a row with one four-wide multiply-add per entry of L, in place.
+// A wide block (layout in wide_layout) copies its own columns' entries of z into t (structure of
+// arrays) and solves its triangle there; its rows below are a product with the block's panels of
+// eight rows: forward, u = L_below t, eight rows at a time with the block's w columns streamed in
+// order, then subtracted from z row by row; back, the rows below are copied into b (structure of
+// arrays, zero past the last) and t −= L_belowᵀ b, Cols columns at a time sharing each load of b.
+// g holds 6 m doubles: t (3 × m) and u or b (3 × m), m ≥ the widest block, rounded up to 8.
 template <typename T, bool Wide = false>
 __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, const T* values, const double* inv_diag,
                                                   double* z4, double* g, size_t m) noexcept {
@@ -95,30 +130,13 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
   const int* rs = sn.row_start.data();
   const int* rows = sn.rows.data();
   const size_t* vs = sn.value_start.data();
-  double* __restrict gx = g;
-  double* __restrict gy = g + m;
-  double* __restrict gz = g + 2 * m;
+  double* __restrict tx = g;
+  double* __restrict ty = g + m;
+  double* __restrict tz = g + 2 * m;
+  double* __restrict bx = g + 3 * m;
+  double* __restrict by = g + 4 * m;
+  double* __restrict bz = g + 5 * m;
   auto at = [z4](int vertex) { return z4 + 4 * static_cast<size_t>(vertex); };
-  auto gather = [&](int f, size_t w, const int* R, size_t r) {
-    for (size_t i = 0; i < w; ++i) {
-      const double* z = at(f + static_cast<int>(i));
-      gx[i] = z[0]; gy[i] = z[1]; gz[i] = z[2];
-    }
-    for (size_t q = 0; q < r; ++q) {
-      const double* z = at(R[q]);
-      gx[w + q] = z[0]; gy[w + q] = z[1]; gz[w + q] = z[2];
-    }
-  };
-  auto scatter = [&](int f, size_t w, const int* R, size_t r) {
-    for (size_t i = 0; i < w; ++i) {
-      double* z = at(f + static_cast<int>(i));
-      z[0] = gx[i]; z[1] = gy[i]; z[2] = gz[i];
-    }
-    for (size_t q = 0; q < r; ++q) {
-      double* z = at(R[q]);
-      z[0] = gx[w + q]; z[1] = gy[w + q]; z[2] = gz[w + q];
-    }
-  };
   for (int k = 0; k < S; ++k) {
     const int f = fc[k];
     const size_t w = static_cast<size_t>(fc[k + 1] - f), r = static_cast<size_t>(rs[k + 1] - rs[k]);
@@ -148,20 +166,53 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
       }
       continue;
     }
-    gather(f, w, R, r);
-    const size_t h = w + r;
     for (size_t i = 0; i < w; ++i) {
-      const T* __restrict c = V + column_offset(i, w, r);
-      const double a0 = gx[i], a1 = gy[i], a2 = gz[i];
-      const size_t len = h - i - 1;
-      double* __restrict tx = gx + i + 1;
-      double* __restrict ty = gy + i + 1;
-      double* __restrict tz = gz + i + 1;
+      const double* z = at(f + static_cast<int>(i));
+      tx[i] = z[0]; ty[i] = z[1]; tz[i] = z[2];
+    }
+    for (size_t i = 0; i < w; ++i) {
+      const T* __restrict c = V + column_offset(i, w, 0);
+      const double a0 = tx[i], a1 = ty[i], a2 = tz[i];
+      const size_t len = w - i - 1;
       for (size_t j = 0; j < len; ++j) {
-        tx[j] -= c[j] * a0; ty[j] -= c[j] * a1; tz[j] -= c[j] * a2;
+        const double v = static_cast<double>(c[j]);
+        tx[i + 1 + j] -= v * a0; ty[i + 1 + j] -= v * a1; tz[i + 1 + j] -= v * a2;
       }
     }
-    scatter(f, w, R, r);
+    for (size_t i = 0; i < w; ++i) {
+      double* z = at(f + static_cast<int>(i));
+      z[0] = tx[i]; z[1] = ty[i]; z[2] = tz[i];
+    }
+    const size_t rp = round8(r), wp = round4(w);
+    for (size_t i = w; i < wp; ++i) tx[i] = ty[i] = tz[i] = 0.0;  // the zero columns' unknowns
+    std::fill(bx, bx + rp, 0.0);
+    std::fill(by, by + rp, 0.0);
+    std::fill(bz, bz + rp, 0.0);
+    const T* P = V + panel_offset(w);
+    for (size_t c0 = 0; c0 < wp; c0 += 8) {
+      const size_t gw = group_width(c0, w);
+      const T* pp = P + c0 * rp;
+      for (size_t p = 0; p < rp; p += 8, pp += 8 * gw) {
+        d8 ux, uy, uz;
+        std::memcpy(&ux, bx + p, sizeof ux);
+        std::memcpy(&uy, by + p, sizeof uy);
+        std::memcpy(&uz, bz + p, sizeof uz);
+        for (size_t c = 0; c < gw; ++c) {
+          PALPATE_LOAD8(T, l, pp + 8 * c);
+          ux += l * tx[c0 + c]; uy += l * ty[c0 + c]; uz += l * tz[c0 + c];
+        }
+        std::memcpy(bx + p, &ux, sizeof ux);
+        std::memcpy(by + p, &uy, sizeof uy);
+        std::memcpy(bz + p, &uz, sizeof uz);
+      }
+    }
+    for (size_t q = 0; q < r; ++q) {
+      double* z = at(R[q]);
+      const d4 u = {bx[q], by[q], bz[q], 0.0};
+      PALPATE_LOAD4(y, z);
+      y -= u;
+      PALPATE_STORE4(z, y);
+    }
   }
   const int n = fc[S];
   for (int i = 0; i < n; ++i) {
@@ -195,23 +246,65 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
       }
       continue;
     }
-    gather(f, w, R, r);
-    const size_t h = w + r;
-    for (size_t i = w; i-- > 0;) {
-      double t0, t1, t2;
-      const size_t len = h - i - 1;
-      dot3<T, Wide>(V + column_offset(i, w, r), gx + i + 1, gy + i + 1, gz + i + 1, static_cast<int>(len), t0, t1, t2);
-      gx[i] -= t0; gy[i] -= t1; gz[i] -= t2;
+    const size_t rp = round8(r);
+    for (size_t q = 0; q < r; ++q) {
+      const double* z = at(R[q]);
+      bx[q] = z[0]; by[q] = z[1]; bz[q] = z[2];
     }
+    for (size_t q = r; q < rp; ++q) bx[q] = by[q] = bz[q] = 0.0;  // the panels' padding rows
     for (size_t i = 0; i < w; ++i) {
-      double* z = at(f + static_cast<int>(i));
-      z[0] = gx[i]; z[1] = gy[i]; z[2] = gz[i];
+      const double* z = at(f + static_cast<int>(i));
+      tx[i] = z[0]; ty[i] = z[1]; tz[i] = z[2];
+    }
+    const T* P = V + panel_offset(w);
+    const size_t wp = round4(w);
+    for (size_t c0 = 0; c0 < wp; c0 += 8) {
+      const size_t gw = group_width(c0, w);
+      // Columns [c0 + h, c0 + h + A) of the group at a time, A of them summed in registers.
+      auto columns = [&]<size_t A>(size_t h) {
+        d8 sx[A], sy[A], sz[A];
+        for (size_t c = 0; c < A; ++c) sx[c] = sy[c] = sz[c] = d8{0, 0, 0, 0, 0, 0, 0, 0};
+        const T* pp = P + c0 * rp + 8 * h;
+        for (size_t p = 0; p < rp; p += 8, pp += 8 * gw) {
+          d8 xb, yb, zb;
+          std::memcpy(&xb, bx + p, sizeof xb);
+          std::memcpy(&yb, by + p, sizeof yb);
+          std::memcpy(&zb, bz + p, sizeof zb);
+          for (size_t c = 0; c < A; ++c) {
+            PALPATE_LOAD8(T, l, pp + 8 * c);
+            sx[c] += l * xb; sy[c] += l * yb; sz[c] += l * zb;
+          }
+        }
+        for (size_t c = 0; c < A && c0 + h + c < w; ++c) {
+          tx[c0 + h + c] -= PALPATE_HSUM8(sx[c]);
+          ty[c0 + h + c] -= PALPATE_HSUM8(sy[c]);
+          tz[c0 + h + c] -= PALPATE_HSUM8(sz[c]);
+        }
+      };
+      if constexpr (Wide) {
+        if (gw == 8) columns.template operator()<8>(0);
+        else columns.template operator()<4>(0);
+      } else {
+        for (size_t h = 0; h < gw; h += 2) columns.template operator()<2>(h);
+      }
+    }
+    for (size_t c = w; c-- > 0;) {
+      double t0, t1, t2;
+      dot3<T, Wide>(V + column_offset(c, w, 0), tx + c + 1, ty + c + 1, tz + c + 1, static_cast<int>(w - c - 1), t0,
+                    t1, t2);
+      tx[c] -= t0; ty[c] -= t1; tz[c] -= t2;
+    }
+    for (size_t c = 0; c < w; ++c) {
+      double* z = at(f + static_cast<int>(c));
+      z[0] = tx[c]; z[1] = ty[c]; z[2] = tz[c];
     }
   }
 }
 
 #undef PALPATE_LOAD4
 #undef PALPATE_STORE4
+#undef PALPATE_LOAD8
+#undef PALPATE_HSUM8
 
 // The sweeps and dense products compiled twice each: for AVX2 + FMA (x86-64-v3) and for any
 // x86-64, chosen per call by a CPU check (a load of a global set by libgcc's constructor). Not
@@ -262,22 +355,29 @@ PALPATE_TWICE(dense_single_impl,
               { dense_rows(W, n, bx, by, bz, x); })
 #undef PALPATE_TWICE
 
-void sweeps_double(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m) noexcept {
-  if (has_x86_64_v4())
-    sweeps_double_impl_v4(sn, inv_diag, z4, g, m);
-  else if (has_x86_64_v3())
-    sweeps_double_impl_v3(sn, inv_diag, z4, g, m);
-  else
-    sweeps_double_impl_base(sn, inv_diag, z4, g, m);
+// The best of the builds this CPU runs, capped at `most`.
+SolveIsa choose(SolveIsa most) noexcept {
+  if (most >= SolveIsa::x86_64_v4 && has_x86_64_v4()) return SolveIsa::x86_64_v4;
+  if (most >= SolveIsa::x86_64_v3 && has_x86_64_v3()) return SolveIsa::x86_64_v3;
+  return SolveIsa::x86_64;
 }
 
-void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m) noexcept {
-  if (has_x86_64_v4())
-    sweeps_single_impl_v4(sn, inv_diag, z4, g, m);
-  else if (has_x86_64_v3())
-    sweeps_single_impl_v3(sn, inv_diag, z4, g, m);
-  else
-    sweeps_single_impl_base(sn, inv_diag, z4, g, m);
+void sweeps_double(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m,
+                   SolveIsa isa) noexcept {
+  switch (choose(isa)) {
+    case SolveIsa::x86_64_v4: sweeps_double_impl_v4(sn, inv_diag, z4, g, m); break;
+    case SolveIsa::x86_64_v3: sweeps_double_impl_v3(sn, inv_diag, z4, g, m); break;
+    default: sweeps_double_impl_base(sn, inv_diag, z4, g, m); break;
+  }
+}
+
+void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m,
+                   SolveIsa isa) noexcept {
+  switch (choose(isa)) {
+    case SolveIsa::x86_64_v4: sweeps_single_impl_v4(sn, inv_diag, z4, g, m); break;
+    case SolveIsa::x86_64_v3: sweeps_single_impl_v3(sn, inv_diag, z4, g, m); break;
+    default: sweeps_single_impl_base(sn, inv_diag, z4, g, m); break;
+  }
 }
 
 #pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see step.cpp
@@ -411,7 +511,12 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
     const size_t r = static_cast<size_t>(sn.row_start[k + 1] - sn.row_start[k]);
     sn.max_width = std::max(sn.max_width, static_cast<int>(w));
     sn.max_height = std::max(sn.max_height, static_cast<int>(w + r));
-    sn.value_start[k + 1] = sn.value_start[k] + w * (w - 1) / 2 + r * w;
+    if (w < kGatherWidth) {
+      sn.value_start[k + 1] = sn.value_start[k] + w * (w - 1) / 2 + r * w;
+    } else {
+      sn.value_start[k] = round8(sn.value_start[k]);  // zeros after the block before
+      sn.value_start[k + 1] = sn.value_start[k] + wide_block_size(w, r);
+    }
   }
   sn.values.assign(sn.value_start[S], 0.0);
   std::vector<int> position(static_cast<size_t>(n), -1);  // block row of each row index
@@ -420,32 +525,38 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
     const size_t w = static_cast<size_t>(e - f0);
     for (int q = sn.row_start[k]; q < sn.row_start[k + 1]; ++q) position[static_cast<size_t>(sn.rows[static_cast<size_t>(q)])] = q - sn.row_start[k];
     const size_t rcount = static_cast<size_t>(sn.row_start[k + 1] - sn.row_start[k]);
+    const bool wide = w >= kGatherWidth;
     for (int c = f0; c < e; ++c) {
       const size_t i = static_cast<size_t>(c - f0);
-      // Column i covers block rows i + 1 … w − 1 and then the rows below, in that order; block row
-      // `at` (> i: L is strictly lower) is its entry at − (i + 1). Indices, not pointers: a block
-      // may hold no values at all (then values.data() may be null).
-      const size_t col = sn.value_start[k] + column_offset(i, w, rcount);
+      // Column i's entries in the triangle: block row `at` (> i: L is strictly lower) is entry
+      // at − (i + 1) of the column. Indices, not pointers: a block may hold no values at all (then
+      // values.data() may be null).
+      const size_t col = sn.value_start[k] + column_offset(i, w, wide ? 0 : rcount);
       for (int q = cs[c]; q < cs[c + 1]; ++q) {
         const int r = rw[q];
-        const size_t at = r < e ? static_cast<size_t>(r - f0) : w + static_cast<size_t>(position[static_cast<size_t>(r)]);
-        sn.values[col + at - (i + 1)] = p.value[static_cast<size_t>(q)];
+        if (r < e) {
+          sn.values[col + static_cast<size_t>(r - f0) - (i + 1)] = p.value[static_cast<size_t>(q)];
+          continue;
+        }
+        const size_t below = static_cast<size_t>(position[static_cast<size_t>(r)]);
+        const size_t to = wide ? sn.value_start[k] + panel_entry(w, rcount, below, i) : col + (w - 1 - i) + below;
+        sn.values[to] = p.value[static_cast<size_t>(q)];
       }
     }
   }
   if (single) {
     sn.values_single.assign(sn.values.begin(), sn.values.end());
-    std::vector<double>().swap(sn.values);
+    decltype(sn.values)().swap(sn.values);
   }
   return sn;
 }
 
 size_t supernodal_scratch(const SpringPredictor& p, const SpringSupernodes& sn) {
-  return 4 * static_cast<size_t>(p.n) + 3 * static_cast<size_t>(sn.max_height);
+  return 4 * static_cast<size_t>(p.n) + 6 * round8(static_cast<size_t>(sn.max_height));
 }
 
 void solve_supernodal(const SpringPredictor& p, const SpringSupernodes& sn, const RowMat3d& b, RowMat3d& x,
-                      double* scratch) noexcept {
+                      double* scratch, SolveIsa isa) noexcept {
   const int n = p.n;
   double* z4 = scratch;
   const int* perm = p.perm.data();
@@ -454,9 +565,9 @@ void solve_supernodal(const SpringPredictor& p, const SpringSupernodes& sn, cons
     z[0] = b(i, 0); z[1] = b(i, 1); z[2] = b(i, 2); z[3] = 0;
   }
   double* g = scratch + 4 * static_cast<size_t>(n);
-  const size_t m = static_cast<size_t>(sn.max_height);
-  if (sn.values_single.empty()) sweeps_double(sn, p.inv_diag.data(), z4, g, m);
-  else sweeps_single(sn, p.inv_diag.data(), z4, g, m);
+  const size_t m = round8(static_cast<size_t>(sn.max_height));
+  if (sn.values_single.empty()) sweeps_double(sn, p.inv_diag.data(), z4, g, m, isa);
+  else sweeps_single(sn, p.inv_diag.data(), z4, g, m, isa);
   for (int i = 0; i < n; ++i) {
     const double* z = z4 + 4 * static_cast<size_t>(perm[i]);
     x(i, 0) = z[0]; x(i, 1) = z[1]; x(i, 2) = z[2];

@@ -6,6 +6,9 @@
 
 namespace palpate::spring {
 
+// The builds of the sweeps: any x86-64 (SSE2), x86-64-v3 (AVX2 + FMA), x86-64-v4 (AVX-512).
+enum class SolveIsa { x86_64 = 1, x86_64_v3 = 3, x86_64_v4 = 4, best = 4 };
+
 // Which fill-reducing ordering the sparse predictor's factor uses.
 enum class SparseOrdering {
   fewest_nonzeros,    // both below, keep the sparser factor (what build_predictor does)
@@ -26,17 +29,19 @@ Result<SpringPredictor> build_predictor(const SpringNetwork& network, const Spri
 SpringSupernodes make_supernodes(const SpringPredictor& predictor, bool single = false, double max_padding = 0.5,
                                  int max_width = 128);
 
-// Doubles of scratch solve_supernodal needs: (4n + 3·max_height).
+// Doubles of scratch solve_supernodal needs: 4n + 6·max_height rounded up to 8.
 size_t supernodal_scratch(const SpringPredictor& predictor, const SpringSupernodes& supernodes);
 
 // x = A⁻¹ b for b, x (n x 3) with A = Pᵀ L D Lᵀ P: permute into four doubles per vertex (x, y, z,
 // 0), forward substitution block by block (narrow blocks in place, one four-wide multiply-add per
-// entry; wide ones gathered into structure-of-arrays, one axpy per column, scattered back), scale
-// by D⁻¹, back substitution (one dot per column), permute back. The three coordinates share every value of L read; float values are
-// widened and accumulated in double. scratch holds
-// supernodal_scratch() doubles. b and x may not alias.
+// entry; a wide block's triangle solved on a structure-of-arrays copy of its columns and its rows
+// below updated by a product over its panels of eight rows), scale by D⁻¹, back substitution (the
+// same, transposed), permute back. The three coordinates share every value of L read; float
+// values are widened and accumulated in double. scratch holds supernodal_scratch() doubles. b and
+// x may not alias.
+// isa caps the instruction set of the sweeps (the tests run every build; the step takes the best).
 void solve_supernodal(const SpringPredictor& predictor, const SpringSupernodes& supernodes, const RowMat3d& b,
-                      RowMat3d& x, double* scratch) noexcept;
+                      RowMat3d& x, double* scratch, SolveIsa isa = SolveIsa::best) noexcept;
 
 // The reference: the same solve column by column over the CSC factor (one index per entry).
 void solve_columns(const SpringPredictor& predictor, const RowMat3d& b, RowMat3d& x, RowMat3d& scratch) noexcept;
