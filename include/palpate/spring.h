@@ -145,13 +145,14 @@ struct SpringSupernodes {
                                     // column by column, column i of width w holding its w − 1 − i
                                     // entries in the block's triangle, then its r entries in the rows
                                     // below; a wide one (4 columns or more) from a multiple of eight,
-                                    // its triangle so, then its rows below in panels of eight rows
-                                    // (solve.cpp, panel_offset)
+                                    // as a dense block of its own rows and its rows below, in
+                                    // panels of eight rows (solve.cpp, WideShape)
   std::vector<double, CacheLineAllocator<double>> values;  // L's entries in that layout
   std::vector<float, CacheLineAllocator<float>> values_single;  // the same in float instead
                                                                  // (SpringModelOptions::single_precision)
   int max_width = 0;              // widest supernode
-  int max_height = 0;             // tallest supernode, width + rows below (sizes the solve's scratch)
+  int max_height = 0;             // tallest supernode, width + rows below, each rounded up to 8 in a
+                                  // wide block (sizes the solve's scratch)
   bool empty() const { return first_column.empty(); }
 };
 
@@ -199,7 +200,7 @@ struct SpringState {
   std::vector<double> soa;  // all-pairs kernel: (9N + 8), N = n rounded up to 8, structure-of-arrays
                             // copies from the first 64-byte boundary; other networks'
                             // spring pass: (16n + 3) x, v, f, r padded to four doubles per vertex;
-                            // sparse solve: (4n + 3·max_height) the permuted right-hand side as
+                            // sparse solve: (4n + 3·max_height, rounded up to 8) the permuted right-hand side as
                             // (x, y, z, 0) per vertex, and the block being solved (used one after the other)
   // Grasping: vertices attached to the tool and their offsets from the tip when grabbed.
   static constexpr int kMaxGrasped = 16;

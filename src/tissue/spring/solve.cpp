@@ -86,42 +86,75 @@ __attribute__((always_inline)) inline void dot3(const T* a, const double* x, con
   t0 = r0; t1 = r1; t2 = r2;
 }
 
-// Blocks narrower than this are solved in place; wider ones through t and b (see sweeps).
+// Blocks narrower than this are solved in place; wider ones on a copy of their rows (see sweeps).
 constexpr size_t kGatherWidth = 4;
 
 inline size_t round8(size_t x) noexcept { return (x + 7) & ~static_cast<size_t>(7); }
 
 // Offset of column i's values inside a narrow block of width w with r rows below: columns are
 // stored one after the other, column i holding its w − 1 − i triangle entries and then its r block
-// entries. In a wide block, column_offset(i, w, 0) is column i's start in the block's triangle.
+// entries.
 inline size_t column_offset(size_t i, size_t w, size_t r) noexcept { return i * (w - 1 + r) - i * (i - 1) / 2; }
 
-// A wide block (w ≥ kGatherWidth, r rows below) starts at a multiple of eight values: its
-// triangle as above, zeros up to the next multiple of eight, then its rows below. Those are split
-// into groups of eight columns (the last of four or eight, zero columns added to make the width a
-// multiple of four) and each group into panels of eight rows (the last padded with zero rows), a
-// panel holding its columns one after the other, eight values each: row q of column c is at
-// panel_offset(w) + c0·r8 + (q / 8)·8g + 8(c − c0) + q % 8 for a group of width g from column c0
-// and r8 = r rounded up to 8. Both products over the rows below then read the block from start to
-// end, and each column's eight rows are one aligned load.
-inline size_t panel_offset(size_t w) noexcept { return round8(w * (w - 1) / 2); }
-inline size_t round4(size_t x) noexcept { return (x + 3) & ~static_cast<size_t>(3); }
-inline size_t wide_block_size(size_t w, size_t r) noexcept { return panel_offset(w) + round8(r) * round4(w); }
-inline size_t group_width(size_t c0, size_t w) noexcept { return round4(w) - c0 >= 8 ? 8 : 4; }
-inline size_t panel_entry(size_t w, size_t r, size_t q, size_t c) noexcept {
-  const size_t c0 = c / 8 * 8, g = group_width(c0, w);
-  return panel_offset(w) + c0 * round8(r) + (q / 8) * 8 * g + 8 * (c - c0) + q % 8;
+// A wide block (w ≥ kGatherWidth columns, r rows below) is a dense block of rows: its own w rows
+// padded to W = w rounded up to 8, then its r rows below padded to a multiple of 8, in panels of
+// eight rows (panel p holds rows 8p … 8p + 7). Its columns form groups of eight (the last of w mod 8
+// when that is not 0); group g (columns 8g …) stores its panels from panel g, the diagonal tile
+// (L's strictly lower entries there, zeros on and above the diagonal), to the last, each panel
+// column by column, eight values per column. Every product over the block then reads it from start
+// to end, a column's eight rows are one aligned load, and the triangle is solved tile by tile with
+// the same products. The block starts at a multiple of eight values.
+struct WideShape {
+  size_t own_panels, panels;  // W / 8, all panels (own and below)
+  size_t group_start(size_t g) const noexcept {
+    // Σ over groups before g of width × 8 × (panels from that group's diagonal on); all groups
+    // but the last are eight wide.
+    return 64 * (g * panels - g * (g - 1) / 2);
+  }
+};
+inline WideShape wide_shape(size_t w, size_t r) noexcept { return {round8(w) / 8, round8(w) / 8 + round8(r) / 8}; }
+inline size_t group_width(size_t g, size_t w) noexcept { return std::min<size_t>(8, w - 8 * g); }
+inline size_t wide_block_size(size_t w, size_t r) noexcept {
+  const WideShape sh = wide_shape(w, r);
+  const size_t G = (w + 7) / 8;
+  return sh.group_start(G - 1) + group_width(G - 1, w) * 8 * (sh.panels - (G - 1));
 }
+// Where row `row` (0 … w − 1 the block's own, w + q the q-th row below) of column c is stored.
+inline size_t wide_entry(size_t w, size_t r, size_t row, size_t c) noexcept {
+  const WideShape sh = wide_shape(w, r);
+  const size_t g = c / 8, gw = group_width(g, w);
+  const size_t at = row < w ? row : 8 * sh.own_panels + (row - w);  // padded row
+  return sh.group_start(g) + (at / 8 - g) * 8 * gw + 8 * (c - 8 * g) + at % 8;
+}
+
+// bx[q], by[q], bz[q] = the x, y, z of row R[q] (z4[4 R[q]] … + 2) for q < count rounded down to
+// eight, eight rows at a time with AVX-512 gathers; returns how many rows it did. (A call, not
+// inlined: the sweeps' template has no target of its own.)
+#pragma GCC diagnostic push  // GCC 12's AVX-512 gather intrinsic: see step.cpp
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+__attribute__((target("avx512f,avx2"), noinline)) size_t gather_rows_avx512(const int* R, size_t count,
+                                                                          const double* z4, double* bx,
+                                                                          double* by, double* bz) noexcept {
+  size_t q = 0;
+  for (; q + 8 <= count; q += 8) {
+    const __m256i idx = _mm256_slli_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(R + q)), 2);
+    _mm512_storeu_pd(bx + q, _mm512_i32gather_pd(idx, z4, 8));
+    _mm512_storeu_pd(by + q, _mm512_i32gather_pd(idx, z4 + 1, 8));
+    _mm512_storeu_pd(bz + q, _mm512_i32gather_pd(idx, z4 + 2, 8));
+  }
+  return q;
+}
+#pragma GCC diagnostic pop
 
 // Forward substitution L y = b, then y ← D⁻¹ y, then back substitution Lᵀ x = y, in place on the
 // right-hand side z4, (4n): each vertex's x, y, z and a zero, so a narrow block updates the three
 // coordinates of a row with one four-wide multiply-add per entry of L, in place.
-// A wide block (layout in wide_layout) copies its own columns' entries of z into t (structure of
-// arrays) and solves its triangle there; its rows below are a product with the block's panels of
-// eight rows: forward, u = L_below t, eight rows at a time with the block's w columns streamed in
-// order, then subtracted from z row by row; back, the rows below are copied into b (structure of
-// arrays, zero past the last) and t −= L_belowᵀ b, Cols columns at a time sharing each load of b.
-// g holds 6 m doubles: t (3 × m) and u or b (3 × m), m ≥ the widest block, rounded up to 8.
+// A wide block (layout at WideShape) copies its rows, own and below, into g (structure of arrays:
+// x, y, z, each m long, m ≥ the tallest padded block) and works there group of columns by group:
+// forward, the diagonal tile is solved, then every later panel's rows get −L_panel t_group, eight
+// rows and the group's columns at a time (the rows below start from zero and are added to z
+// after); back, each column of the group gets −Σ L_panelᵀ g_panel over its later panels, the
+// group's columns summed in registers side by side, then the diagonal tile is solved.
 template <typename T, bool Wide = false>
 __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, const T* values, const double* inv_diag,
                                                   double* z4, double* g, size_t m) noexcept {
@@ -130,12 +163,9 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
   const int* rs = sn.row_start.data();
   const int* rows = sn.rows.data();
   const size_t* vs = sn.value_start.data();
-  double* __restrict tx = g;
-  double* __restrict ty = g + m;
-  double* __restrict tz = g + 2 * m;
-  double* __restrict bx = g + 3 * m;
-  double* __restrict by = g + 4 * m;
-  double* __restrict bz = g + 5 * m;
+  double* __restrict gx = g;
+  double* __restrict gy = g + m;
+  double* __restrict gz = g + 2 * m;
   auto at = [z4](int vertex) { return z4 + 4 * static_cast<size_t>(vertex); };
   for (int k = 0; k < S; ++k) {
     const int f = fc[k];
@@ -166,51 +196,51 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
       }
       continue;
     }
+    const WideShape sh = wide_shape(w, r);
+    const size_t W = 8 * sh.own_panels, H = 8 * sh.panels, G = (w + 7) / 8;
     for (size_t i = 0; i < w; ++i) {
       const double* z = at(f + static_cast<int>(i));
-      tx[i] = z[0]; ty[i] = z[1]; tz[i] = z[2];
+      gx[i] = z[0]; gy[i] = z[1]; gz[i] = z[2];
     }
-    for (size_t i = 0; i < w; ++i) {
-      const T* __restrict c = V + column_offset(i, w, 0);
-      const double a0 = tx[i], a1 = ty[i], a2 = tz[i];
-      const size_t len = w - i - 1;
-      for (size_t j = 0; j < len; ++j) {
-        const double v = static_cast<double>(c[j]);
-        tx[i + 1 + j] -= v * a0; ty[i + 1 + j] -= v * a1; tz[i + 1 + j] -= v * a2;
+    std::fill(gx + w, gx + H, 0.0);
+    std::fill(gy + w, gy + H, 0.0);
+    std::fill(gz + w, gz + H, 0.0);
+    for (size_t grp = 0; grp < G; ++grp) {
+      const size_t c0 = 8 * grp, gw = group_width(grp, w);
+      const T* pan = V + sh.group_start(grp);
+      // The diagonal tile, column by column (entries on and above the diagonal are zero).
+      for (size_t c = 0; c < gw; ++c) {
+        const T* l = pan + 8 * c;
+        const double a0 = gx[c0 + c], a1 = gy[c0 + c], a2 = gz[c0 + c];
+        for (size_t j = c + 1; j < 8; ++j) {
+          const double v = static_cast<double>(l[j]);
+          gx[c0 + j] -= v * a0; gy[c0 + j] -= v * a1; gz[c0 + j] -= v * a2;
+        }
+      }
+      const T* pp = pan + 8 * gw;
+      for (size_t row = c0 + 8; row < H; row += 8, pp += 8 * gw) {
+        d8 ux, uy, uz;
+        std::memcpy(&ux, gx + row, sizeof ux);
+        std::memcpy(&uy, gy + row, sizeof uy);
+        std::memcpy(&uz, gz + row, sizeof uz);
+        for (size_t c = 0; c < gw; ++c) {
+          PALPATE_LOAD8(T, l, pp + 8 * c);
+          ux -= l * gx[c0 + c]; uy -= l * gy[c0 + c]; uz -= l * gz[c0 + c];
+        }
+        std::memcpy(gx + row, &ux, sizeof ux);
+        std::memcpy(gy + row, &uy, sizeof uy);
+        std::memcpy(gz + row, &uz, sizeof uz);
       }
     }
     for (size_t i = 0; i < w; ++i) {
       double* z = at(f + static_cast<int>(i));
-      z[0] = tx[i]; z[1] = ty[i]; z[2] = tz[i];
-    }
-    const size_t rp = round8(r), wp = round4(w);
-    for (size_t i = w; i < wp; ++i) tx[i] = ty[i] = tz[i] = 0.0;  // the zero columns' unknowns
-    std::fill(bx, bx + rp, 0.0);
-    std::fill(by, by + rp, 0.0);
-    std::fill(bz, bz + rp, 0.0);
-    const T* P = V + panel_offset(w);
-    for (size_t c0 = 0; c0 < wp; c0 += 8) {
-      const size_t gw = group_width(c0, w);
-      const T* pp = P + c0 * rp;
-      for (size_t p = 0; p < rp; p += 8, pp += 8 * gw) {
-        d8 ux, uy, uz;
-        std::memcpy(&ux, bx + p, sizeof ux);
-        std::memcpy(&uy, by + p, sizeof uy);
-        std::memcpy(&uz, bz + p, sizeof uz);
-        for (size_t c = 0; c < gw; ++c) {
-          PALPATE_LOAD8(T, l, pp + 8 * c);
-          ux += l * tx[c0 + c]; uy += l * ty[c0 + c]; uz += l * tz[c0 + c];
-        }
-        std::memcpy(bx + p, &ux, sizeof ux);
-        std::memcpy(by + p, &uy, sizeof uy);
-        std::memcpy(bz + p, &uz, sizeof uz);
-      }
+      z[0] = gx[i]; z[1] = gy[i]; z[2] = gz[i];
     }
     for (size_t q = 0; q < r; ++q) {
       double* z = at(R[q]);
-      const d4 u = {bx[q], by[q], bz[q], 0.0};
+      const d4 u = {gx[W + q], gy[W + q], gz[W + q], 0.0};
       PALPATE_LOAD4(y, z);
-      y -= u;
+      y += u;
       PALPATE_STORE4(z, y);
     }
   }
@@ -237,66 +267,92 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
           PALPATE_LOAD4(y, at(fi + 1 + static_cast<int>(j)));
           a -= d4{v, v, v, v} * y;
         }
-        for (size_t q = 0; q < r; ++q) {
+        // Two chains of multiply-adds in flight (one would wait on each one's latency).
+        d4 a2 = {0, 0, 0, 0};
+        size_t q = 0;
+        for (; q + 2 <= r; q += 2) {
+          const double v0 = static_cast<double>(c[t + q]), v1 = static_cast<double>(c[t + q + 1]);
+          PALPATE_LOAD4(y0, at(R[q]));
+          PALPATE_LOAD4(y1, at(R[q + 1]));
+          a -= d4{v0, v0, v0, v0} * y0;
+          a2 -= d4{v1, v1, v1, v1} * y1;
+        }
+        if (q < r) {
           const double v = static_cast<double>(c[t + q]);
           PALPATE_LOAD4(y, at(R[q]));
           a -= d4{v, v, v, v} * y;
         }
+        a += a2;
         PALPATE_STORE4(at(fi), a);
       }
       continue;
     }
-    const size_t rp = round8(r);
-    for (size_t q = 0; q < r; ++q) {
-      const double* z = at(R[q]);
-      bx[q] = z[0]; by[q] = z[1]; bz[q] = z[2];
-    }
-    for (size_t q = r; q < rp; ++q) bx[q] = by[q] = bz[q] = 0.0;  // the panels' padding rows
+    const WideShape sh = wide_shape(w, r);
+    const size_t W = 8 * sh.own_panels, H = 8 * sh.panels, G = (w + 7) / 8;
     for (size_t i = 0; i < w; ++i) {
       const double* z = at(f + static_cast<int>(i));
-      tx[i] = z[0]; ty[i] = z[1]; tz[i] = z[2];
+      gx[i] = z[0]; gy[i] = z[1]; gz[i] = z[2];
     }
-    const T* P = V + panel_offset(w);
-    const size_t wp = round4(w);
-    for (size_t c0 = 0; c0 < wp; c0 += 8) {
-      const size_t gw = group_width(c0, w);
-      // Columns [c0 + h, c0 + h + A) of the group at a time, A of them summed in registers.
+    for (size_t i = w; i < W; ++i) gx[i] = gy[i] = gz[i] = 0.0;
+    size_t q0 = 0;
+    if constexpr (Wide) q0 = gather_rows_avx512(R, r, z4, gx + W, gy + W, gz + W);
+    for (size_t q = q0; q < r; ++q) {
+      const double* z = at(R[q]);
+      gx[W + q] = z[0]; gy[W + q] = z[1]; gz[W + q] = z[2];
+    }
+    for (size_t q = W + r; q < H; ++q) gx[q] = gy[q] = gz[q] = 0.0;  // the last panel's padding rows
+    for (size_t grp = G; grp-- > 0;) {
+      const size_t c0 = 8 * grp, gw = group_width(grp, w);
+      const T* pan = V + sh.group_start(grp);
+      // Columns [c0 + h, c0 + h + A) of the group at a time, their sums side by side in registers.
       auto columns = [&]<size_t A>(size_t h) {
         d8 sx[A], sy[A], sz[A];
         for (size_t c = 0; c < A; ++c) sx[c] = sy[c] = sz[c] = d8{0, 0, 0, 0, 0, 0, 0, 0};
-        const T* pp = P + c0 * rp + 8 * h;
-        for (size_t p = 0; p < rp; p += 8, pp += 8 * gw) {
+        const T* pp = pan + 8 * gw + 8 * h;
+        for (size_t row = c0 + 8; row < H; row += 8, pp += 8 * gw) {
           d8 xb, yb, zb;
-          std::memcpy(&xb, bx + p, sizeof xb);
-          std::memcpy(&yb, by + p, sizeof yb);
-          std::memcpy(&zb, bz + p, sizeof zb);
+          std::memcpy(&xb, gx + row, sizeof xb);
+          std::memcpy(&yb, gy + row, sizeof yb);
+          std::memcpy(&zb, gz + row, sizeof zb);
           for (size_t c = 0; c < A; ++c) {
             PALPATE_LOAD8(T, l, pp + 8 * c);
             sx[c] += l * xb; sy[c] += l * yb; sz[c] += l * zb;
           }
         }
-        for (size_t c = 0; c < A && c0 + h + c < w; ++c) {
-          tx[c0 + h + c] -= PALPATE_HSUM8(sx[c]);
-          ty[c0 + h + c] -= PALPATE_HSUM8(sy[c]);
-          tz[c0 + h + c] -= PALPATE_HSUM8(sz[c]);
+        for (size_t c = 0; c < A; ++c) {
+          gx[c0 + h + c] -= PALPATE_HSUM8(sx[c]);
+          gy[c0 + h + c] -= PALPATE_HSUM8(sy[c]);
+          gz[c0 + h + c] -= PALPATE_HSUM8(sz[c]);
         }
       };
       if constexpr (Wide) {
-        if (gw == 8) columns.template operator()<8>(0);
-        else columns.template operator()<4>(0);
+        switch (gw) {
+          case 8: columns.template operator()<8>(0); break;
+          case 7: columns.template operator()<7>(0); break;
+          case 6: columns.template operator()<6>(0); break;
+          case 5: columns.template operator()<5>(0); break;
+          case 4: columns.template operator()<4>(0); break;
+          case 3: columns.template operator()<3>(0); break;
+          case 2: columns.template operator()<2>(0); break;
+          default: columns.template operator()<1>(0); break;
+        }
       } else {
-        for (size_t h = 0; h < gw; h += 2) columns.template operator()<2>(h);
+        for (size_t h = 0; h < gw; ++h) columns.template operator()<1>(h);
       }
-    }
-    for (size_t c = w; c-- > 0;) {
-      double t0, t1, t2;
-      dot3<T, Wide>(V + column_offset(c, w, 0), tx + c + 1, ty + c + 1, tz + c + 1, static_cast<int>(w - c - 1), t0,
-                    t1, t2);
-      tx[c] -= t0; ty[c] -= t1; tz[c] -= t2;
+      // The diagonal tile, last column first.
+      for (size_t c = gw; c-- > 0;) {
+        const T* l = pan + 8 * c;
+        double t0 = 0, t1 = 0, t2 = 0;
+        for (size_t j = c + 1; j < 8; ++j) {
+          const double v = static_cast<double>(l[j]);
+          t0 += v * gx[c0 + j]; t1 += v * gy[c0 + j]; t2 += v * gz[c0 + j];
+        }
+        gx[c0 + c] -= t0; gy[c0 + c] -= t1; gz[c0 + c] -= t2;
+      }
     }
     for (size_t c = 0; c < w; ++c) {
       double* z = at(f + static_cast<int>(c));
-      z[0] = tx[c]; z[1] = ty[c]; z[2] = tz[c];
+      z[0] = gx[c]; z[1] = gy[c]; z[2] = gz[c];
     }
   }
 }
@@ -516,6 +572,7 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
     } else {
       sn.value_start[k] = round8(sn.value_start[k]);  // zeros after the block before
       sn.value_start[k + 1] = sn.value_start[k] + wide_block_size(w, r);
+      sn.max_height = std::max(sn.max_height, static_cast<int>(round8(w) + round8(r)));
     }
   }
   sn.values.assign(sn.value_start[S], 0.0);
@@ -528,18 +585,15 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
     const bool wide = w >= kGatherWidth;
     for (int c = f0; c < e; ++c) {
       const size_t i = static_cast<size_t>(c - f0);
-      // Column i's entries in the triangle: block row `at` (> i: L is strictly lower) is entry
-      // at − (i + 1) of the column. Indices, not pointers: a block may hold no values at all (then
+      // Narrow: column i's entries in the triangle (block row `at` > i is entry at − (i + 1)), then
+      // the rows below. Indices, not pointers: a block may hold no values at all (then
       // values.data() may be null).
-      const size_t col = sn.value_start[k] + column_offset(i, w, wide ? 0 : rcount);
+      const size_t col = sn.value_start[k] + column_offset(i, w, rcount);
       for (int q = cs[c]; q < cs[c + 1]; ++q) {
         const int r = rw[q];
-        if (r < e) {
-          sn.values[col + static_cast<size_t>(r - f0) - (i + 1)] = p.value[static_cast<size_t>(q)];
-          continue;
-        }
-        const size_t below = static_cast<size_t>(position[static_cast<size_t>(r)]);
-        const size_t to = wide ? sn.value_start[k] + panel_entry(w, rcount, below, i) : col + (w - 1 - i) + below;
+        const size_t row = r < e ? static_cast<size_t>(r - f0) : w + static_cast<size_t>(position[static_cast<size_t>(r)]);
+        const size_t to = wide ? sn.value_start[k] + wide_entry(w, rcount, row, i)
+                               : (row < w ? col + row - (i + 1) : col + (w - 1 - i) + (row - w));
         sn.values[to] = p.value[static_cast<size_t>(q)];
       }
     }
@@ -552,7 +606,7 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
 }
 
 size_t supernodal_scratch(const SpringPredictor& p, const SpringSupernodes& sn) {
-  return 4 * static_cast<size_t>(p.n) + 6 * round8(static_cast<size_t>(sn.max_height));
+  return 4 * static_cast<size_t>(p.n) + 3 * round8(static_cast<size_t>(sn.max_height));
 }
 
 void solve_supernodal(const SpringPredictor& p, const SpringSupernodes& sn, const RowMat3d& b, RowMat3d& x,

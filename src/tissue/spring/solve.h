@@ -29,7 +29,7 @@ Result<SpringPredictor> build_predictor(const SpringNetwork& network, const Spri
 SpringSupernodes make_supernodes(const SpringPredictor& predictor, bool single = false, double max_padding = 0.5,
                                  int max_width = 128);
 
-// Doubles of scratch solve_supernodal needs: 4n + 6·max_height rounded up to 8.
+// Doubles of scratch solve_supernodal needs: 4n + 3·max_height rounded up to 8.
 size_t supernodal_scratch(const SpringPredictor& predictor, const SpringSupernodes& supernodes);
 
 // x = A⁻¹ b for b, x (n x 3) with A = Pᵀ L D Lᵀ P: permute into four doubles per vertex (x, y, z,
