@@ -132,9 +132,11 @@ Result<SpringPredictor> spring::build_predictor(const SpringNetwork& net, const 
     }
     return p;
   }
-  // Sparse: LDLᵀ of P A Pᵀ, factorised once, with the ordering that fills less: METIS nested
-  // dissection (what 3-D meshes want) or Eigen's approximate minimum degree (better on small or
-  // thin graphs, and the fallback if METIS fails). docs/benchmarks/spring.md compares nnz(L).
+  // Sparse: LDLᵀ of P A Pᵀ, factorised once, with the ordering that fills least: METIS nested
+  // dissection (what 3-D meshes want; twice, with METIS's defaults and with ten separators per
+  // level and a looser balance, which often fills less) or Eigen's approximate minimum degree
+  // (better on small or thin graphs, and the fallback if METIS fails). docs/benchmarks/spring.md
+  // compares nnz(L).
   if (progress) progress(0.05);
   const SparseOrdering ordering = sparse_ordering;
   SpringPredictor best;
@@ -147,10 +149,13 @@ Result<SpringPredictor> spring::build_predictor(const SpringNetwork& net, const 
     if (Status st = take_factor(ldlt.matrixL().nestedExpression(), ldlt.vectorD(), std::move(perm), best); !st)
       return st.error();
   }
-  if (progress) progress(0.5);
-  if (ordering != SparseOrdering::amd) {
-    std::vector<int> nd = spring::nested_dissection(n, net.springs);
+  if (progress) progress(0.35);
+  bool ordered = false;
+  for (const auto [separators, imbalance] : {std::array<int, 2>{1, 0}, std::array<int, 2>{10, 300}}) {
+    if (ordering == SparseOrdering::amd) break;
+    std::vector<int> nd = spring::nested_dissection(n, net.springs, separators, imbalance);
     if (!nd.empty()) {
+      ordered = true;
       std::vector<Eigen::Triplet<double>> pt;
       pt.reserve(triplets.size());
       for (const auto& t : triplets)
@@ -165,10 +170,11 @@ Result<SpringPredictor> spring::build_predictor(const SpringNetwork& net, const 
         return st.error();
       if (best.value.empty() && best.inv_diag.empty()) best = std::move(q);
       else if (q.value.size() < best.value.size()) best = std::move(q);
-    } else if (ordering == SparseOrdering::nested_dissection) {
-      return Error{"METIS could not order the predictor matrix"};
     }
+    if (progress) progress(separators == 1 ? 0.65 : 0.95);
   }
+  if (ordering == SparseOrdering::nested_dissection && !ordered)
+    return Error{"METIS could not order the predictor matrix"};
   best.kind = p.kind;
   best.n = p.n;
   p = std::move(best);

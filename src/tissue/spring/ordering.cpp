@@ -7,7 +7,8 @@
 
 namespace palpate::spring {
 
-std::vector<int> nested_dissection(int n, const std::vector<std::array<int, 2>>& edges) {
+std::vector<int> nested_dissection(int n, const std::vector<std::array<int, 2>>& edges, int separators,
+                                   int imbalance) {
   if (n <= 0) return {};
   // METIS wants the adjacency in CSR without self-loops, each edge in both directions.
   std::vector<idx_t> degree(static_cast<size_t>(n) + 1, 0);
@@ -39,6 +40,8 @@ std::vector<int> nested_dissection(int n, const std::vector<std::array<int, 2>>&
   idx_t options[METIS_NOPTIONS];
   METIS_SetDefaultOptions(options);
   options[METIS_OPTION_NUMBERING] = 0;
+  options[METIS_OPTION_NSEPS] = std::max(separators, 1);
+  if (imbalance > 0) options[METIS_OPTION_UFACTOR] = imbalance;
   std::vector<idx_t> perm(static_cast<size_t>(n)), iperm(static_cast<size_t>(n));
   if (adj.empty()) adj.push_back(0);  // METIS reads adjncy[0] even for an edgeless graph
   if (METIS_NodeND(&nv, xs.data(), adj.data(), nullptr, options, perm.data(), iperm.data()) != METIS_OK) return {};
