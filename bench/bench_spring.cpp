@@ -9,6 +9,8 @@
 #include <Eigen/SparseCholesky>
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -195,8 +197,27 @@ BENCHMARK(BM_SpringTick_Block10_Sparse_AmdColumns)->Unit(benchmark::kMicrosecond
 BENCHMARK(BM_SpringTick_Block20_Sparse_AmdColumns)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Organ10k_Sparse_AmdColumns)->Unit(benchmark::kMicrosecond);
 
+// Median time of one predictor tick (as in tick(), the probe pressing in and out), in µs.
+double predictor_tick_median_us(const SpringModel& model, int ticks) {
+  SpringState s = make_state(model);
+  ToolState tool;
+  tool.radius = 0.004;
+  const Vec3 top(model.network.rest.col(0).mean(), model.network.rest.col(1).maxCoeff(), model.network.rest.col(2).mean());
+  std::vector<double> us(static_cast<size_t>(ticks));
+  for (int i = 0; i < ticks; ++i) {
+    tool.tip = top + Vec3(0, 0.004 - 0.002 * ((i % 2000) / 2000.0), 0);
+    const auto t0 = std::chrono::steady_clock::now();
+    benchmark::DoNotOptimize(step(model, s, &tool));
+    us[static_cast<size_t>(i)] = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+  }
+  std::nth_element(us.begin(), us.begin() + ticks / 2, us.end());
+  return us[static_cast<size_t>(ticks / 2)];
+}
+
 // Baseline: the same linear system assembled and solved with Eigen every tick
-// (SimplicialLDLT factorize + solve of M + h(γI + C_L) + h²K_L), forces as in step().
+// (SimplicialLDLT factorize + solve of M + h(γI + C_L) + h²K_L), forces as in step(). Reports,
+// besides its own time, the predictor's median tick on the same model measured in the same run
+// right after (predictor_us) and the ratio of the two medians (baseline_over_predictor).
 void baseline(benchmark::State& state, const std::string& key) {
   const SpringModel& model = cached(key);
   const SpringNetwork& net = model.network;
@@ -204,7 +225,9 @@ void baseline(benchmark::State& state, const std::string& key) {
   const double h = model.options.dt, gamma = model.options.point_damping;
   SpringState s = make_state(model);
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  std::vector<double> own_us;
   for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
     std::vector<Eigen::Triplet<double>> t;
     std::vector<double> diag(static_cast<size_t>(n));
     for (int i = 0; i < n; ++i) diag[static_cast<size_t>(i)] = net.mass[static_cast<size_t>(i)] + h * gamma;
@@ -238,7 +261,13 @@ void baseline(benchmark::State& state, const std::string& key) {
     s.v += dv;
     s.x += h * s.v;
     benchmark::DoNotOptimize(s.x.data());
+    own_us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
   }
+  if (own_us.empty()) return;
+  std::nth_element(own_us.begin(), own_us.begin() + static_cast<std::ptrdiff_t>(own_us.size() / 2), own_us.end());
+  const double predictor = predictor_tick_median_us(model, 500);
+  state.counters["predictor_us"] = predictor;
+  state.counters["baseline_over_predictor"] = own_us[own_us.size() / 2] / predictor;
 }
 void BM_SpringBaseline_Block10_RefactorEachTick(benchmark::State& s) { baseline(s, "block10"); }
 void BM_SpringBaseline_Block20_RefactorEachTick(benchmark::State& s) { baseline(s, "block20"); }
