@@ -9,7 +9,7 @@
 namespace {
 
 std::filesystem::path shared_mesh(const char* name) {
-  return std::filesystem::path(PALPATE_SHARED_DATA_DIR) / "meshes" / name;
+  return std::filesystem::path(PALPATE_DATA_DIR) / "meshes" / name;
 }
 
 void BM_LoadSurfaceLiverSmoothObj(benchmark::State& state) {

@@ -27,7 +27,7 @@ execute_process(COMMAND ${CMAKE_COMMAND} --build ${WORK_DIR}/build -j2 RESULT_VA
 if(rc)
   message(FATAL_ERROR "building examples/embed failed")
 endif()
-execute_process(COMMAND ${WORK_DIR}/build/embed ${PALPATE_SHARED_DATA_DIR}/meshes/liver.msh
+execute_process(COMMAND ${WORK_DIR}/build/embed ${PALPATE_DATA_DIR}/meshes/liver.msh
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 message("${out}${err}")
 if(rc OR NOT out MATCHES "181 vertices, 596 tetrahedra")

@@ -14,8 +14,8 @@
 
 namespace palpate::test {
 
-inline std::filesystem::path shared_mesh(const std::string& name) {
-  return std::filesystem::path(PALPATE_SHARED_DATA_DIR) / "meshes" / name;
+inline std::filesystem::path data_mesh(const std::string& name) {
+  return std::filesystem::path(PALPATE_DATA_DIR) / "meshes" / name;
 }
 inline std::filesystem::path test_mesh(const std::string& name) {
   return std::filesystem::path(PALPATE_TEST_DATA_DIR) / "meshes" / name;

@@ -175,7 +175,7 @@ TEST(ChargedMesh, OpenSheetKeepsItsBoundaryExactly) {
 }
 
 TEST(ChargedMesh, LiverSurfacePatchIsOnTheSurfaceClosedAndAtMostSixNeighbours) {
-  auto loaded = load_surface(std::string(PALPATE_SHARED_DATA_DIR) + "/meshes/liver-smooth.obj", 0.01);
+  auto loaded = load_surface(std::string(PALPATE_DATA_DIR) + "/meshes/liver-smooth.obj", 0.01);
   ASSERT_TRUE(loaded.ok()) << loaded.error().message;
   const SurfaceMesh& liver = *loaded;
   ASSERT_GT(liver.F.rows(), 4000);

@@ -12,7 +12,7 @@ using namespace palpate;
 namespace {
 
 SceneDef scene_of(const std::string& yaml) {
-  auto s = parse_scene(yaml, "t.yaml", PALPATE_SHARED_DATA_DIR);
+  auto s = parse_scene(yaml, "t.yaml", PALPATE_DATA_DIR);
   EXPECT_TRUE(s.ok()) << s.error().message;
   return *s;
 }

@@ -12,7 +12,7 @@
 namespace {
 
 using palpate::test::ScratchDir;
-using palpate::test::shared_mesh;
+using palpate::test::data_mesh;
 
 // The message starts with the file's path (for TetGen, the .node or .ele of the same name: the
 // error names whichever of the pair is wrong).
@@ -76,7 +76,7 @@ TEST(MeshErrors, UnknownExtensionAndBadScale) {
   expect_error(palpate::load_tet(f), f, {"unknown tetrahedral mesh format '.xyz123'"});
   const auto cube = palpate::test::test_mesh("cube.off");
   expect_error(palpate::load_surface(cube, -1.0), cube, {"scale is -1, expected a positive finite factor"});
-  expect_error(palpate::load_tet(shared_mesh("liver.msh"), 0.0), shared_mesh("liver.msh"), {"scale is 0"});
+  expect_error(palpate::load_tet(data_mesh("liver.msh"), 0.0), data_mesh("liver.msh"), {"scale is 0"});
 }
 
 TEST(MeshErrors, NanCoordinateNamesTheVertex) {
@@ -189,18 +189,18 @@ TEST(MeshErrors, TruncatedFiles) {
     const size_t at = static_cast<size_t>(fraction * static_cast<double>(text.size()));
     return dir.write(name, text.substr(0, text.rfind('\n', at) + 1));  // cut after a whole line
   };
-  const auto vtk = cut(shared_mesh("liver_tet.vtk"), "liver.vtk", 0.5);
+  const auto vtk = cut(data_mesh("liver_tet.vtk"), "liver.vtk", 0.5);
   expect_error(palpate::load_tet(vtk), vtk, {"unexpected end of file, expected a cell's point"});
-  const auto vtk_points = cut(shared_mesh("liver_tet.vtk"), "points.vtk", 0.2);
+  const auto vtk_points = cut(data_mesh("liver_tet.vtk"), "points.vtk", 0.2);
   expect_error(palpate::load_tet(vtk_points), vtk_points, {"unexpected end of file, expected a point coordinate"});
   // So short that the promised count cannot fit: refused before any memory is sized by it.
-  const auto vtk_short = cut(shared_mesh("liver_tet.vtk"), "short.vtk", 0.05);
+  const auto vtk_short = cut(data_mesh("liver_tet.vtk"), "short.vtk", 0.05);
   EXPECT_EQ(palpate::load_tet(vtk_short).error().message,
             vtk_short.string() + ":5: the number of points is 181, more than the file can hold");
-  const auto msh = cut(shared_mesh("liver.msh"), "liver.msh", 0.5);
+  const auto msh = cut(data_mesh("liver.msh"), "liver.msh", 0.5);
   expect_error(palpate::load_tet(msh), msh, {"Gmsh could not read the mesh"});
-  dir.write("liver.node", palpate::test::read_text(shared_mesh("liver_tet.node")));
-  const auto ele = cut(shared_mesh("liver_tet.ele"), "liver.ele", 0.9);
+  dir.write("liver.node", palpate::test::read_text(data_mesh("liver_tet.node")));
+  const auto ele = cut(data_mesh("liver_tet.ele"), "liver.ele", 0.9);
   expect_error(palpate::load_tet(ele), ele, {"unexpected end of file, expected tetrahedron"});
   const auto ply = cut(palpate::test::test_mesh("cube.ply"), "cube.ply", 0.8);
   expect_error(palpate::load_surface(ply), ply, {});
@@ -321,10 +321,11 @@ TEST(MeshErrors, GarbageNeverCrashes) {
       {palpate::test::test_mesh("cube_ascii.stl"), false}, {palpate::test::test_mesh("cube.ply"), false},
       {palpate::test::test_mesh("cube.off"), false},       {palpate::test::test_mesh("cube_v2.msh"), true},
       {palpate::test::test_mesh("cube_v4.msh"), true},     {palpate::test::test_mesh("cube_v4_binary.msh"), true},
-      {shared_mesh("liver_tet.vtk"), true},                {shared_mesh("liver.obj"), false}};
+      {data_mesh("liver_tet.vtk"), true},                {data_mesh("liver.obj"), false}};
   std::uniform_int_distribution<int> printable(32, 126);
   for (const auto& [source, tet] : sources) {
     const std::string text = palpate::test::read_text(source);
+    ASSERT_FALSE(text.empty()) << source;  // a mutant needs bytes to replace
     for (int round = 0; round < 12; ++round) {
       std::string mutant = text;
       std::uniform_int_distribution<size_t> at(0, mutant.size() - 1);

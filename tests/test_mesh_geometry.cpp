@@ -62,7 +62,7 @@ TEST(MeshGeometry, BoundaryOfCubeTetsIsTheOutwardCube) {
 }
 
 TEST(MeshGeometry, BoundaryOfLiverEnclosesItsVolume) {
-  const auto tet = palpate::load_tet(palpate::test::shared_mesh("liver.msh"));
+  const auto tet = palpate::load_tet(palpate::test::data_mesh("liver.msh"));
   ASSERT_TRUE(tet.ok());
   const palpate::SurfaceMesh b = palpate::boundary_surface(*tet);
   EXPECT_EQ(b.F.rows(), 276);

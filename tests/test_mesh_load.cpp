@@ -11,7 +11,7 @@
 
 namespace {
 
-using palpate::test::shared_mesh;
+using palpate::test::data_mesh;
 using palpate::test::test_mesh;
 
 constexpr double kLiverVolume = 36.56;  // SOURCES.md: liver.msh, 596 positive tets
@@ -67,13 +67,13 @@ void expect_unit_cube_tets(const palpate::TetMesh& m) {
 }
 
 TEST(MeshLoad, SharedLiverTetVariantsAgree) {
-  const auto msh = palpate::load_tet(shared_mesh("liver.msh"));
+  const auto msh = palpate::load_tet(data_mesh("liver.msh"));
   ASSERT_TRUE(msh.ok()) << msh.error().message;
   EXPECT_EQ(msh->V.rows(), 181);
   EXPECT_EQ(msh->T.rows(), 596);
   EXPECT_NEAR(palpate::describe(*msh).volume, kLiverVolume, 0.01);
   for (const char* name : {"liver_tet.node", "liver_tet.ele", "liver_tet.vtk"}) {
-    const auto other = palpate::load_tet(shared_mesh(name));
+    const auto other = palpate::load_tet(data_mesh(name));
     ASSERT_TRUE(other.ok()) << other.error().message;
     EXPECT_EQ(other->V.rows(), 181) << name;
     EXPECT_EQ(other->T.rows(), 596) << name;
@@ -85,8 +85,8 @@ TEST(MeshLoad, SharedLiverTetVariantsAgree) {
 }
 
 TEST(MeshLoad, ScaleMultipliesEveryCoordinate) {
-  const auto one = palpate::load_tet(shared_mesh("liver_tet.vtk"));
-  const auto cm = palpate::load_tet(shared_mesh("liver_tet.vtk"), 0.01);
+  const auto one = palpate::load_tet(data_mesh("liver_tet.vtk"));
+  const auto cm = palpate::load_tet(data_mesh("liver_tet.vtk"), 0.01);
   ASSERT_TRUE(one.ok() && cm.ok());
   EXPECT_TRUE(cm->V.isApprox(0.01 * one->V, 1e-15));
   EXPECT_NEAR(palpate::describe(*cm).volume, kLiverVolume * 1e-6, 1e-8);
@@ -96,9 +96,9 @@ TEST(MeshLoad, ScaleMultipliesEveryCoordinate) {
 }
 
 TEST(MeshLoad, LiverObjSharesTheTetVertices) {
-  const auto obj = palpate::load_surface(shared_mesh("liver.obj"));
+  const auto obj = palpate::load_surface(data_mesh("liver.obj"));
   ASSERT_TRUE(obj.ok()) << obj.error().message;
-  const auto tet = palpate::load_tet(shared_mesh("liver.msh"));
+  const auto tet = palpate::load_tet(data_mesh("liver.msh"));
   ASSERT_TRUE(tet.ok());
   EXPECT_EQ(obj->F.rows(), 274);
   // Every surface vertex is one of the tet mesh's vertices (same coordinates, float precision).
@@ -115,7 +115,7 @@ TEST(MeshLoad, LiverObjSharesTheTetVertices) {
 TEST(MeshLoad, LiverSmoothObjMergesCornersByPosition) {
   // Each corner carries its own normal index (f 1//1 2194//2 ...): merged by position it is
   // one connected surface of 2194 vertices.
-  const auto m = palpate::load_surface(shared_mesh("liver-smooth.obj"));
+  const auto m = palpate::load_surface(data_mesh("liver-smooth.obj"));
   ASSERT_TRUE(m.ok()) << m.error().message;
   EXPECT_EQ(m->V.rows(), 2194);
   EXPECT_EQ(m->F.rows(), 4384);
@@ -128,11 +128,11 @@ TEST(MeshLoad, LiverSmoothObjMergesCornersByPosition) {
 }
 
 TEST(MeshLoad, LiverTetBoundaryIsClosedAndEnclosesTheTetVolume) {
-  const auto surf = palpate::load_surface(shared_mesh("liver_tet_boundary.obj"), 1.0, {.manifold = true, .closed = true});
+  const auto surf = palpate::load_surface(data_mesh("liver_tet_boundary.obj"), 1.0, {.manifold = true, .closed = true});
   ASSERT_TRUE(surf.ok()) << surf.error().message;
   EXPECT_EQ(surf->V.rows(), 140);
   EXPECT_EQ(surf->F.rows(), 276);
-  const auto tet = palpate::load_tet(shared_mesh("liver.msh"));
+  const auto tet = palpate::load_tet(data_mesh("liver.msh"));
   ASSERT_TRUE(tet.ok());
   const palpate::MeshInfo s = palpate::describe(*surf), t = palpate::describe(*tet);
   EXPECT_TRUE(s.closed);

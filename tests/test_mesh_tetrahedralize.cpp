@@ -23,7 +23,7 @@ void expect_fills(const palpate::SurfaceMesh& surface, const palpate::TetMesh& t
 }
 
 TEST(MeshTetrahedralize, LiverBoundaryFillsTheLiverVolume) {
-  const auto surface = palpate::load_surface(palpate::test::shared_mesh("liver_tet_boundary.obj"), 1.0,
+  const auto surface = palpate::load_surface(palpate::test::data_mesh("liver_tet_boundary.obj"), 1.0,
                                              {.manifold = true, .closed = true});
   ASSERT_TRUE(surface.ok()) << surface.error().message;
   const auto coarse = palpate::tetrahedralize(*surface);

@@ -107,8 +107,8 @@ tissues:
       gravity: false
       predictor: cache/liver.pred
 )";
-  const fs::path base = fs::path(PALPATE_SHARED_DATA_DIR "/meshes").lexically_normal();
-  auto r = parse_scene(yaml, "full.yaml", PALPATE_SHARED_DATA_DIR "/meshes");
+  const fs::path base = fs::path(PALPATE_DATA_DIR "/meshes").lexically_normal();
+  auto r = parse_scene(yaml, "full.yaml", PALPATE_DATA_DIR "/meshes");
   ASSERT_TRUE(r.ok()) << r.error().message;
   const SceneDef& s = *r;
   EXPECT_EQ(s.name, "full");
@@ -393,7 +393,7 @@ TEST(SceneErrors, DuplicateTissueNamesAndDuplicateKeys) {
 
 TEST(SceneErrors, ExactlyOneOfPatchAndMesh) {
   EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {}\n    mesh: {file: liver.msh}\n",
-                     PALPATE_SHARED_DATA_DIR "/meshes"),
+                     PALPATE_DATA_DIR "/meshes"),
             "s.yaml:4: tissues[0]: has both 'patch' and 'mesh'; expected exactly one");
   EXPECT_EQ(error_of("tissues:\n  - name: a\n  - name: b\n    patch: {}\n"),
             "s.yaml:2: tissues[0]: has neither 'patch' nor 'mesh'; expected exactly one");
@@ -537,8 +537,8 @@ TEST(SceneExamples, DefaultIsTheNeedleThroughThreeLayers) {
   EXPECT_TRUE(r->camera.has_value());
 }
 
-TEST(SceneExamples, LiverScenesResolveToTheSharedMesh) {
-  const fs::path shared = fs::weakly_canonical(PALPATE_SHARED_DATA_DIR "/meshes/liver.msh");
+TEST(SceneExamples, LiverScenesResolveToTheProjectsLiverMesh) {
+  const fs::path liver = fs::weakly_canonical(PALPATE_DATA_DIR "/meshes/liver.msh");
   for (const char* name : {"liver-springs.yaml", "liver-probe.yaml"}) {
     auto r = palpate::load_scene(fs::path(PALPATE_SOURCE_DIR "/data/scenes") / name);
     ASSERT_TRUE(r.ok()) << r.error().message;
@@ -546,7 +546,7 @@ TEST(SceneExamples, LiverScenesResolveToTheSharedMesh) {
     const auto& t = r->tissues[0];
     EXPECT_EQ(t.model, "mass_spring");
     ASSERT_TRUE(t.mesh.has_value());
-    EXPECT_EQ(fs::weakly_canonical(t.mesh->file), shared) << name;
+    EXPECT_EQ(fs::weakly_canonical(t.mesh->file), liver) << name;
     EXPECT_EQ(t.spring.topology, "tet_edges");
     EXPECT_EQ(t.anchors, (std::vector<int>{3, 39, 64}));
   }

@@ -97,7 +97,7 @@ TEST(SpringOscillator, PeriodWithinOnePercentOfAnalytic) {
 }
 
 TEST(SpringOscillator, BackwardEulerAmplitudeFactorPerStep) {
-  const auto rows = read_csv(std::string(PALPATE_SHARED_DATA_DIR) + "/analytic/implicit_euler_oscillator.csv");
+  const auto rows = read_csv(std::string(PALPATE_DATA_DIR) + "/analytic/implicit_euler_oscillator.csv");
   ASSERT_GE(rows.size(), 5u);
   const double m = 0.01, k = 100.0, w = std::sqrt(k / m);
   for (const auto& row : rows) {
@@ -144,7 +144,7 @@ TEST(SpringEnergy, NeverGrowsUnderAnyImplicitVariant) {
 }
 
 TEST(SpringChain, HangingChainSettlesToAnalyticStretch) {
-  const auto rows = read_csv(std::string(PALPATE_SHARED_DATA_DIR) + "/analytic/hanging_spring_chain_static.csv");
+  const auto rows = read_csv(std::string(PALPATE_DATA_DIR) + "/analytic/hanging_spring_chain_static.csv");
   // Group the rows by chain (N, m, k).
   std::map<std::tuple<int, double, double>, std::vector<std::pair<int, double>>> chains;
   for (const auto& r : rows)

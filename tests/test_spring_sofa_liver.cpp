@@ -1,4 +1,4 @@
-// test_spring_sofa_liver.cpp — SOFA's own mass-spring liver (shared/data/meshes/liver-springs.scn)
+// test_spring_sofa_liver.cpp — SOFA's own mass-spring liver (data/meshes/liver-springs.scn)
 // reproduced as data/scenes/liver-springs.yaml: it sags to a static equilibrium held by its
 // three anchors, whose reaction equals the liver's weight.
 #include <palpate/scene.h>

@@ -5,7 +5,7 @@
 #include <cstdio>
 
 int main(int argc, char** argv) {
-  if (argc > 1) {  // an organ mesh, e.g. shared/data/meshes/liver.msh
+  if (argc > 1) {  // an organ mesh, e.g. data/meshes/liver.msh
     auto mesh = palpate::load_tet(argv[1], 0.01);
     if (!mesh) {
       std::fprintf(stderr, "%s\n", mesh.error().message.c_str());

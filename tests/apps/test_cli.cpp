@@ -63,14 +63,14 @@ TEST(Cli, BadSceneGivesFileAndLine) {
 }
 
 TEST(Cli, InfoDescribesTheSharedLiver) {
-  Ran r = run(std::string("info ") + PALPATE_SHARED_DATA_DIR + "/meshes/liver.msh");
+  Ran r = run(std::string("info ") + PALPATE_DATA_DIR + "/meshes/liver.msh");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("tetrahedral"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("181"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("596"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("36.56"), std::string::npos) << r.out;
 
-  r = run(std::string("info ") + PALPATE_SHARED_DATA_DIR + "/meshes/liver_tet_boundary.obj");
+  r = run(std::string("info ") + PALPATE_DATA_DIR + "/meshes/liver_tet_boundary.obj");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("closed      yes"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("manifold    yes"), std::string::npos) << r.out;
