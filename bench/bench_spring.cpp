@@ -86,15 +86,25 @@ const SpringModel& cached(const std::string& key) {
   return *m;
 }
 
+// Where the probe starts: over the middle of the model's top.
+Vec3 probe_top(const SpringModel& model) {
+  return {model.network.rest.col(0).mean(), model.network.rest.col(1).maxCoeff(), model.network.rest.col(2).mean()};
+}
+// The probe of tick i: a 4 mm sphere from `top`, pressing in and out every 2 s.
+ToolState probe(const Vec3& top, int i) {
+  ToolState tool;
+  tool.radius = 0.004;
+  tool.tip = top + Vec3(0, 0.004 - 0.002 * ((i % 2000) / 2000.0), 0);
+  return tool;
+}
+
 void tick(benchmark::State& state, const std::string& key) {
   const SpringModel& model = cached(key);
   SpringState s = make_state(model);
-  ToolState tool;
-  tool.radius = 0.004;
-  const Vec3 top(model.network.rest.col(0).mean(), model.network.rest.col(1).maxCoeff(), model.network.rest.col(2).mean());
+  const Vec3 top = probe_top(model);
   int i = 0;
   for (auto _ : state) {
-    tool.tip = top + Vec3(0, 0.004 - 0.002 * ((i++ % 2000) / 2000.0), 0);  // pressing in and out
+    const ToolState tool = probe(top, i++);
     benchmark::DoNotOptimize(step(model, s, &tool));
   }
   const auto& p = model.predictor;
@@ -200,12 +210,10 @@ BENCHMARK(BM_SpringTick_Organ10k_Sparse_AmdColumns)->Unit(benchmark::kMicrosecon
 // Median time of one predictor tick (as in tick(), the probe pressing in and out), in µs.
 double predictor_tick_median_us(const SpringModel& model, int ticks) {
   SpringState s = make_state(model);
-  ToolState tool;
-  tool.radius = 0.004;
-  const Vec3 top(model.network.rest.col(0).mean(), model.network.rest.col(1).maxCoeff(), model.network.rest.col(2).mean());
+  const Vec3 top = probe_top(model);
   std::vector<double> us(static_cast<size_t>(ticks));
   for (int i = 0; i < ticks; ++i) {
-    tool.tip = top + Vec3(0, 0.004 - 0.002 * ((i % 2000) / 2000.0), 0);
+    const ToolState tool = probe(top, i);
     const auto t0 = std::chrono::steady_clock::now();
     benchmark::DoNotOptimize(step(model, s, &tool));
     us[static_cast<size_t>(i)] = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();

@@ -12,6 +12,7 @@
 #include "tissue/spring/solve.h"
 
 #include <algorithm>
+#include <span>
 #include <string>
 
 namespace palpate {
@@ -151,8 +152,9 @@ Result<SpringPredictor> spring::build_predictor(const SpringNetwork& net, const 
   }
   if (progress) progress(0.35);
   bool ordered = false;
-  for (const auto [separators, imbalance] : {std::array<int, 2>{1, 0}, std::array<int, 2>{10, 300}}) {
-    if (ordering == SparseOrdering::amd) break;
+  constexpr std::array<std::array<int, 2>, 2> kMetisSettings{{{1, 0}, {10, 300}}};  // separators, imbalance
+  for (const auto [separators, imbalance] : ordering == SparseOrdering::amd ? std::span<const std::array<int, 2>>{}
+                                                                             : std::span(kMetisSettings)) {
     std::vector<int> nd = spring::nested_dissection(n, net.springs, separators, imbalance);
     if (!nd.empty()) {
       ordered = true;

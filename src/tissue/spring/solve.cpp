@@ -38,30 +38,14 @@ typedef float f8 __attribute__((vector_size(32)));
   }
 #define PALPATE_HSUM8(s) (((s)[0] + (s)[1]) + ((s)[2] + (s)[3])) + (((s)[4] + (s)[5]) + ((s)[6] + (s)[7]))
 
-// (t0, t1, t2) = Σ_j a[j] (x[j], y[j], z[j]), j < w: one read of a for the three coordinates.
-// T is the stored value type (double, or float widened to double: accumulation is in double).
-// Wide: eight at a time first (the AVX-512 build), then four, then one by one.
-template <typename T, bool Wide = false>
+// (t0, t1, t2) = Σ_j a[j] (x[j], y[j], z[j]), j < w: one read of a for the three coordinates
+// (the dense products' rows). T is the stored value type (double, or float widened to double:
+// accumulation is in double). Four at a time, then one by one.
+template <typename T>
 __attribute__((always_inline)) inline void dot3(const T* a, const double* x, const double* y, const double* z, int w,
                                                 double& t0, double& t1, double& t2) noexcept {
   int j = 0;
   double r0 = 0, r1 = 0, r2 = 0;
-  if constexpr (Wide) {
-    d8 s0 = {0, 0, 0, 0, 0, 0, 0, 0}, s1 = s0, s2 = s0;
-    for (; j + 8 <= w; j += 8) {
-      PALPATE_LOAD8(T, v, a + j);
-      d8 vx, vy, vz;
-      std::memcpy(&vx, x + j, sizeof vx);
-      std::memcpy(&vy, y + j, sizeof vy);
-      std::memcpy(&vz, z + j, sizeof vz);
-      s0 += v * vx;
-      s1 += v * vy;
-      s2 += v * vz;
-    }
-    r0 = PALPATE_HSUM8(s0);
-    r1 = PALPATE_HSUM8(s1);
-    r2 = PALPATE_HSUM8(s2);
-  }
   d4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
   for (; j + 4 <= w; j += 4) {
     const d4 v = {static_cast<double>(a[j]), static_cast<double>(a[j + 1]), static_cast<double>(a[j + 2]),
