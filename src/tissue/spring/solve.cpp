@@ -130,6 +130,174 @@ __attribute__((target("avx512f,avx2"), noinline)) size_t gather_rows_avx512(cons
 }
 #pragma GCC diagnostic pop
 
+// Float arithmetic for a wide block on AVX-512 (the x86-64-v4 build of the float sweeps): L's
+// values are float already, so its products multiply and add in float, sixteen lanes at a time —
+// two columns of a panel (eight rows each, stored one after the other) per load — instead of
+// widening eight values to double. Half the loads and multiply-adds of the double products;
+// rounding in float (the bound is in tests/test_spring_solve.cpp). f = (fx, fy, fz): the block's
+// padded rows in float. The diagonal tiles are solved one value at a time, as in sweeps.
+#pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see step.cpp
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#define PALPATE_F32 __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"), always_inline)) inline
+// The entries the sweeps call (calls, not inlined: the sweeps' template has no target of its own).
+#define PALPATE_F32_CALL __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"), noinline))
+
+// Columns 2p and 2p + 1 of a panel (16 values), or column 2p alone (the upper lanes zero) when the
+// group's width is odd and p is its last pair.
+template <bool Single>
+PALPATE_F32 __m512 pair_load(const float* pp) noexcept {
+  if constexpr (Single) return _mm512_maskz_loadu_ps(0x00FF, pp);
+  else return _mm512_loadu_ps(pp);
+}
+// (a, …, a, b, …, b): eight lanes each.
+PALPATE_F32 __m512 pair_broadcast(float a, float b) noexcept {
+  return _mm512_insertf32x8(_mm512_set1_ps(a), _mm256_set1_ps(b), 1);
+}
+PALPATE_F32 __m256 fold(__m512 v) noexcept {
+  return _mm256_add_ps(_mm512_castps512_ps256(v), _mm512_extractf32x8_ps(v, 1));
+}
+PALPATE_F32 float hsum8(__m256 v) noexcept {
+  const __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+  const __m128 t = _mm_add_ps(s, _mm_movehl_ps(s, s));
+  return _mm_cvtss_f32(_mm_add_ss(t, _mm_movehdup_ps(t)));
+}
+
+// Forward: per group, the diagonal tile, then every later panel's rows −= L_panel t_group with the
+// group's columns in pairs (P pairs, the last a single column when Odd; the broadcasts of t built
+// once per group).
+template <size_t P, bool Odd>
+PALPATE_F32 void wide_forward_panels(const float* pp, size_t gw, size_t c0, size_t row, size_t H, float* fx,
+                                     float* fy, float* fz) noexcept {
+  __m512 tx[P], ty[P], tz[P];
+#pragma GCC unroll 4
+  for (size_t p = 0; p < P; ++p) {
+    const size_t a = c0 + 2 * p, b = 2 * p + 1 < gw ? a + 1 : a;  // b's broadcast meets zeros
+    tx[p] = pair_broadcast(fx[a], fx[b]);
+    ty[p] = pair_broadcast(fy[a], fy[b]);
+    tz[p] = pair_broadcast(fz[a], fz[b]);
+  }
+  for (; row < H; row += 8, pp += 8 * gw) {
+    __m512 ax = _mm512_setzero_ps(), ay = ax, az = ax;
+#pragma GCC unroll 4
+    for (size_t p = 0; p < P; ++p) {
+      const __m512 l = Odd && p + 1 == P ? pair_load<true>(pp + 16 * p) : pair_load<false>(pp + 16 * p);
+      ax = _mm512_fmadd_ps(l, tx[p], ax);
+      ay = _mm512_fmadd_ps(l, ty[p], ay);
+      az = _mm512_fmadd_ps(l, tz[p], az);
+    }
+    _mm256_storeu_ps(fx + row, _mm256_sub_ps(_mm256_loadu_ps(fx + row), fold(ax)));
+    _mm256_storeu_ps(fy + row, _mm256_sub_ps(_mm256_loadu_ps(fy + row), fold(ay)));
+    _mm256_storeu_ps(fz + row, _mm256_sub_ps(_mm256_loadu_ps(fz + row), fold(az)));
+  }
+}
+
+PALPATE_F32_CALL void wide_forward_f32(const float* V, size_t w, size_t r, float* fx, float* fy, float* fz) noexcept {
+  const WideShape sh = wide_shape(w, r);
+  const size_t H = 8 * sh.panels, G = (w + 7) / 8;
+  for (size_t grp = 0; grp < G; ++grp) {
+    const size_t c0 = 8 * grp, gw = group_width(grp, w);
+    const float* pan = V + sh.group_start(grp);
+    for (size_t c = 0; c < gw; ++c) {
+      const float* l = pan + 8 * c;
+      const float a0 = fx[c0 + c], a1 = fy[c0 + c], a2 = fz[c0 + c];
+      for (size_t j = c + 1; j < 8; ++j) {
+        fx[c0 + j] -= l[j] * a0; fy[c0 + j] -= l[j] * a1; fz[c0 + j] -= l[j] * a2;
+      }
+    }
+    const float* pp = pan + 8 * gw;
+    switch (gw) {
+      case 8: wide_forward_panels<4, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 7: wide_forward_panels<4, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 6: wide_forward_panels<3, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 5: wide_forward_panels<3, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 4: wide_forward_panels<2, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 3: wide_forward_panels<2, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 2: wide_forward_panels<1, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      default: wide_forward_panels<1, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+    }
+  }
+}
+
+// Back: per group (last first), each column −= Σ L_panelᵀ g_panel over the later panels (the
+// panel's eight rows broadcast to both halves, the pairs' sums side by side in registers), then
+// the diagonal tile, last column first.
+template <size_t P, bool Odd>
+PALPATE_F32 void wide_back_panels(const float* pp, size_t gw, size_t c0, size_t row, size_t H, float* fx,
+                                  float* fy, float* fz) noexcept {
+  __m512 sx[P], sy[P], sz[P];
+#pragma GCC unroll 4
+  for (size_t p = 0; p < P; ++p) sx[p] = sy[p] = sz[p] = _mm512_setzero_ps();
+  for (; row < H; row += 8, pp += 8 * gw) {
+    const __m512 gx = _mm512_broadcast_f32x8(_mm256_loadu_ps(fx + row));
+    const __m512 gy = _mm512_broadcast_f32x8(_mm256_loadu_ps(fy + row));
+    const __m512 gz = _mm512_broadcast_f32x8(_mm256_loadu_ps(fz + row));
+#pragma GCC unroll 4
+    for (size_t p = 0; p < P; ++p) {
+      const __m512 l = Odd && p + 1 == P ? pair_load<true>(pp + 16 * p) : pair_load<false>(pp + 16 * p);
+      sx[p] = _mm512_fmadd_ps(l, gx, sx[p]);
+      sy[p] = _mm512_fmadd_ps(l, gy, sy[p]);
+      sz[p] = _mm512_fmadd_ps(l, gz, sz[p]);
+    }
+  }
+#pragma GCC unroll 4
+  for (size_t p = 0; p < P; ++p) {
+    const size_t a = c0 + 2 * p;
+    fx[a] -= hsum8(_mm512_castps512_ps256(sx[p]));
+    fy[a] -= hsum8(_mm512_castps512_ps256(sy[p]));
+    fz[a] -= hsum8(_mm512_castps512_ps256(sz[p]));
+    if (2 * p + 1 < gw) {
+      fx[a + 1] -= hsum8(_mm512_extractf32x8_ps(sx[p], 1));
+      fy[a + 1] -= hsum8(_mm512_extractf32x8_ps(sy[p], 1));
+      fz[a + 1] -= hsum8(_mm512_extractf32x8_ps(sz[p], 1));
+    }
+  }
+}
+
+PALPATE_F32_CALL void wide_back_f32(const float* V, size_t w, size_t r, float* fx, float* fy, float* fz) noexcept {
+  const WideShape sh = wide_shape(w, r);
+  const size_t H = 8 * sh.panels, G = (w + 7) / 8;
+  for (size_t grp = G; grp-- > 0;) {
+    const size_t c0 = 8 * grp, gw = group_width(grp, w);
+    const float* pan = V + sh.group_start(grp);
+    const float* pp = pan + 8 * gw;
+    switch (gw) {
+      case 8: wide_back_panels<4, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 7: wide_back_panels<4, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 6: wide_back_panels<3, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 5: wide_back_panels<3, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 4: wide_back_panels<2, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 3: wide_back_panels<2, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      case 2: wide_back_panels<1, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+      default: wide_back_panels<1, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
+    }
+    for (size_t c = gw; c-- > 0;) {
+      const float* l = pan + 8 * c;
+      float t0 = 0, t1 = 0, t2 = 0;
+      for (size_t j = c + 1; j < 8; ++j) {
+        t0 += l[j] * fx[c0 + j]; t1 += l[j] * fy[c0 + j]; t2 += l[j] * fz[c0 + j];
+      }
+      fx[c0 + c] -= t0; fy[c0 + c] -= t1; fz[c0 + c] -= t2;
+    }
+  }
+}
+
+// The rows below of a wide block from z4 into float (x, y, z arrays), eight at a time with
+// gathers; returns how many it did (the caller does the rest).
+PALPATE_F32_CALL size_t gather_rows_f32(const int* R, size_t count, const double* z4, float* bx, float* by,
+                                   float* bz) noexcept {
+  size_t q = 0;
+  for (; q + 8 <= count; q += 8) {
+    const __m256i idx = _mm256_slli_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(R + q)), 2);
+    _mm256_storeu_ps(bx + q, _mm512_cvtpd_ps(_mm512_i32gather_pd(idx, z4, 8)));
+    _mm256_storeu_ps(by + q, _mm512_cvtpd_ps(_mm512_i32gather_pd(idx, z4 + 1, 8)));
+    _mm256_storeu_ps(bz + q, _mm512_cvtpd_ps(_mm512_i32gather_pd(idx, z4 + 2, 8)));
+  }
+  return q;
+}
+#undef PALPATE_F32
+#undef PALPATE_F32_CALL
+#pragma GCC diagnostic pop
+
 // Forward substitution L y = b, then y ← D⁻¹ y, then back substitution Lᵀ x = y, in place on the
 // right-hand side z4, (4n): each vertex's x, y, z and a zero, so a narrow block updates the three
 // coordinates of a row with one four-wide multiply-add per entry of L, in place.
@@ -150,6 +318,11 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
   double* __restrict gx = g;
   double* __restrict gy = g + m;
   double* __restrict gz = g + 2 * m;
+  // Float arithmetic in the wide blocks (float values on AVX-512): their rows in float, same place.
+  constexpr bool F32 = Wide && std::is_same_v<T, float>;
+  float* __restrict fx = reinterpret_cast<float*>(g);
+  float* __restrict fy = fx + m;
+  float* __restrict fz = fx + 2 * m;
   auto at = [z4](int vertex) { return z4 + 4 * static_cast<size_t>(vertex); };
   for (int k = 0; k < S; ++k) {
     const int f = fc[k];
@@ -182,6 +355,28 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
     }
     const WideShape sh = wide_shape(w, r);
     const size_t W = 8 * sh.own_panels, H = 8 * sh.panels, G = (w + 7) / 8;
+    if constexpr (F32) {
+      for (size_t i = 0; i < w; ++i) {
+        const double* z = at(f + static_cast<int>(i));
+        fx[i] = static_cast<float>(z[0]); fy[i] = static_cast<float>(z[1]); fz[i] = static_cast<float>(z[2]);
+      }
+      std::fill(fx + w, fx + H, 0.0f);
+      std::fill(fy + w, fy + H, 0.0f);
+      std::fill(fz + w, fz + H, 0.0f);
+      wide_forward_f32(reinterpret_cast<const float*>(V), w, r, fx, fy, fz);
+      for (size_t i = 0; i < w; ++i) {
+        double* z = at(f + static_cast<int>(i));
+        z[0] = fx[i]; z[1] = fy[i]; z[2] = fz[i];
+      }
+      for (size_t q = 0; q < r; ++q) {
+        double* z = at(R[q]);
+        const d4 u = {fx[W + q], fy[W + q], fz[W + q], 0.0};
+        PALPATE_LOAD4(y, z);
+        y += u;
+        PALPATE_STORE4(z, y);
+      }
+      continue;
+    }
     for (size_t i = 0; i < w; ++i) {
       const double* z = at(f + static_cast<int>(i));
       gx[i] = z[0]; gy[i] = z[1]; gz[i] = z[2];
@@ -273,6 +468,24 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
     }
     const WideShape sh = wide_shape(w, r);
     const size_t W = 8 * sh.own_panels, H = 8 * sh.panels, G = (w + 7) / 8;
+    if constexpr (F32) {
+      for (size_t i = 0; i < w; ++i) {
+        const double* z = at(f + static_cast<int>(i));
+        fx[i] = static_cast<float>(z[0]); fy[i] = static_cast<float>(z[1]); fz[i] = static_cast<float>(z[2]);
+      }
+      for (size_t i = w; i < W; ++i) fx[i] = fy[i] = fz[i] = 0.0f;
+      for (size_t q = gather_rows_f32(R, r, z4, fx + W, fy + W, fz + W); q < r; ++q) {
+        const double* z = at(R[q]);
+        fx[W + q] = static_cast<float>(z[0]); fy[W + q] = static_cast<float>(z[1]); fz[W + q] = static_cast<float>(z[2]);
+      }
+      for (size_t q = W + r; q < H; ++q) fx[q] = fy[q] = fz[q] = 0.0f;
+      wide_back_f32(reinterpret_cast<const float*>(V), w, r, fx, fy, fz);
+      for (size_t c = 0; c < w; ++c) {
+        double* z = at(f + static_cast<int>(c));
+        z[0] = fx[c]; z[1] = fy[c]; z[2] = fz[c];
+      }
+      continue;
+    }
     for (size_t i = 0; i < w; ++i) {
       const double* z = at(f + static_cast<int>(i));
       gx[i] = z[0]; gy[i] = z[1]; gz[i] = z[2];
