@@ -93,7 +93,8 @@ struct SpringModelOptions {
   double max_speed = 50.0;                     // m/s; faster means blow-up: the state is reset
   size_t dense_limit = 4000;                   // most vertices the dense predictor accepts
   // The per-tick predictor (dense A⁻¹ or the supernodal factor) kept in float, read into double
-  // sums: half the memory traffic of the solve. Δv then carries a relative error of about 1e-6
+  // sums (on AVX-512 machines the factor's wide blocks are multiplied and summed in float, sixteen
+  // lanes at a time): half the memory traffic of the solve and, there, half its multiply-adds. Δv then carries a relative error of about 1e-6
   // (test SpringSolve.SinglePrecisionErrorIsBounded), so momentum is conserved to that level and
   // not to round-off. Predictor files still hold doubles; this is not part of their parameters.
   // On an all-pairs network with one stiffness and damping it also computes the O(n²) spring
@@ -201,7 +202,8 @@ struct SpringState {
                             // copies from the first 64-byte boundary; other networks'
                             // spring pass: (16n + 3) x, v, f, r padded to four doubles per vertex;
                             // sparse solve: (4n + 3·max_height, rounded up to 8) the permuted right-hand side as
-                            // (x, y, z, 0) per vertex, and the block being solved (used one after the other)
+                            // (x, y, z, 0) per vertex, and the block being solved (used one after the other;
+                            // the fused sparse step puts the solve's after the spring pass's, both at once)
   // Grasping: vertices attached to the tool and their offsets from the tip when grabbed.
   static constexpr int kMaxGrasped = 16;
   std::array<int, kMaxGrasped> grasped{};

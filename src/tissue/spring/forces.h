@@ -20,6 +20,15 @@ void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat
                                           RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised,
                                           SpringKernel kernel) noexcept;
 
+// The vectorised pass on the padded layout, without copying its sums out: x, v are copied into x4,
+// v4 (four doubles per vertex: x, y, z, 0), f4 starts from f0 (zero when null), r4 from zero, and
+// the pass adds the springs' forces to f4 and the −h K_L v term to r4. Returns x4; v4, f4, r4 follow
+// it 4n doubles apart (scratch: spring_pass_scratch() doubles). Needs has_avx2_fma() and at least
+// one spring (the caller checks: spring_pass_padded_available).
+double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const RowMat3d& v, const RowMat3d* f0,
+                           double* scratch, SpringKernel kernel) noexcept;
+bool spring_pass_padded_available(const SpringModel& model) noexcept;
+
 // Doubles of scratch the vectorised pass needs: (16n + 3), x, v, f and r with four doubles per vertex
 // from the first 32-byte boundary on (scratch is only 8-byte aligned).
 size_t spring_pass_scratch(const SpringModel& model);

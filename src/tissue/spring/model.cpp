@@ -258,6 +258,9 @@ SpringState make_state(const SpringModel& model) {
   if (!model.supernodes.empty()) soa = std::max(soa, spring::supernodal_scratch(model.predictor, model.supernodes));
   if (!model.all_pairs && model.predictor.kind != SpringSolver::exact)
     soa = std::max(soa, spring::spring_pass_scratch(model));
+  if (!model.all_pairs && !model.supernodes.empty())  // the fused sparse step: pass, then solve
+    soa = std::max(soa, spring::spring_pass_scratch(model) +
+                            spring::supernodal_scratch(model.predictor, model.supernodes));
   s.soa.assign(soa, 0.0);
   s.soa_single.assign(model.rest_length_single.empty() ? 0 : static_cast<size_t>(n) * 9, 0.0f);
   return s;

@@ -806,6 +806,13 @@ size_t supernodal_scratch(const SpringPredictor& p, const SpringSupernodes& sn) 
   return 4 * static_cast<size_t>(p.n) + 3 * round8(static_cast<size_t>(sn.max_height));
 }
 
+void solve_supernodal_permuted(const SpringPredictor& p, const SpringSupernodes& sn, double* z4, double* g,
+                               SolveIsa isa) noexcept {
+  const size_t m = round8(static_cast<size_t>(sn.max_height));
+  if (sn.values_single.empty()) sweeps_double(sn, p.inv_diag.data(), z4, g, m, isa);
+  else sweeps_single(sn, p.inv_diag.data(), z4, g, m, isa);
+}
+
 void solve_supernodal(const SpringPredictor& p, const SpringSupernodes& sn, const RowMat3d& b, RowMat3d& x,
                       double* scratch, SolveIsa isa) noexcept {
   const int n = p.n;
@@ -815,10 +822,7 @@ void solve_supernodal(const SpringPredictor& p, const SpringSupernodes& sn, cons
     double* z = z4 + 4 * static_cast<size_t>(perm[i]);
     z[0] = b(i, 0); z[1] = b(i, 1); z[2] = b(i, 2); z[3] = 0;
   }
-  double* g = scratch + 4 * static_cast<size_t>(n);
-  const size_t m = round8(static_cast<size_t>(sn.max_height));
-  if (sn.values_single.empty()) sweeps_double(sn, p.inv_diag.data(), z4, g, m, isa);
-  else sweeps_single(sn, p.inv_diag.data(), z4, g, m, isa);
+  solve_supernodal_permuted(p, sn, z4, scratch + 4 * static_cast<size_t>(n), isa);
   for (int i = 0; i < n; ++i) {
     const double* z = z4 + 4 * static_cast<size_t>(perm[i]);
     x(i, 0) = z[0]; x(i, 1) = z[1]; x(i, 2) = z[2];

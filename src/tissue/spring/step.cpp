@@ -605,6 +605,71 @@ void all_forces(const SpringModel& model, SpringState& s, const ToolState* tool,
   s.anchor_force = anchor_load(model, s.force);
 }
 
+// The doubles of SpringState::soa the fused sparse step takes: the padded spring pass, then the
+// permuted right-hand side and the block being solved.
+size_t fused_scratch(const SpringModel& model) {
+  return spring::spring_pass_scratch(model) + spring::supernodal_scratch(model.predictor, model.supernodes);
+}
+
+// step_predictor's sparse step for generic springs with the supernodal factor, fused: the spring
+// pass leaves its sums in the padded layout, one pass over the vertices builds the permuted
+// right-hand side h (f − γ v − h K_L v) straight into the solve's z4 (anchored rows zero), the
+// solve works there in place, and one pass takes v and x from it. No (n x 3) copies of the forces,
+// the right-hand side or Δv; the arithmetic is the general path's, operation for operation.
+void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState* tool, bool correct) noexcept {
+  const SpringNetwork& net = model.network;
+  const double h = model.options.dt;
+  const double gamma = model.options.point_damping;
+  const size_t n = net.size();
+  s.tool_force = external_forces(model, s, tool, s.work);
+  Vec3 ext_torque = Vec3::Zero();
+  if (correct)
+    for (size_t i = 0; i < n; ++i)
+      ext_torque += s.x.row(static_cast<Eigen::Index>(i)).transpose().cross(s.work.row(static_cast<Eigen::Index>(i)).transpose());
+  double* p = spring::spring_pass_padded(model, s.x, s.v, nullptr, s.soa.data(), spring::SpringKernel::best);
+  const double *f4 = p + 8 * n, *r4 = p + 12 * n;
+  double* z4 = p + 16 * n;
+  const int* perm = model.predictor.perm.data();
+  const double* work = s.work.data();
+  const double* v = s.v.data();
+  for (size_t i = 0; i < n; ++i) {
+    double* z = z4 + 4 * static_cast<size_t>(perm[i]);
+    z[3] = 0;
+    if (model.anchored[i]) {
+      z[0] = z[1] = z[2] = 0;
+      continue;
+    }
+    for (size_t c = 0; c < 3; ++c) z[c] = (r4[4 * i + c] + ((work[3 * i + c] + f4[4 * i + c]) - gamma * v[3 * i + c])) * h;
+  }
+  Vec3 anchor = Vec3::Zero();
+  for (int a : net.anchors) {
+    const size_t i = static_cast<size_t>(a);
+    anchor += Vec3(work[3 * i] + f4[4 * i], work[3 * i + 1] + f4[4 * i + 1], work[3 * i + 2] + f4[4 * i + 2]);
+  }
+  s.anchor_force = anchor;
+  spring::solve_supernodal_permuted(model.predictor, model.supernodes, z4, z4 + 4 * n);
+  if (correct) {
+    for (size_t i = 0; i < n; ++i) {
+      const double* z = z4 + 4 * static_cast<size_t>(perm[i]);
+      s.dv.row(static_cast<Eigen::Index>(i)) << z[0], z[1], z[2];
+    }
+    correct_angular_momentum(model, s, ext_torque, s.dv);
+    s.v += s.dv;
+    s.x += h * s.v;
+    return;  // free body: no anchors to hold
+  }
+  double* vd = s.v.data();
+  double* xd = s.x.data();
+  for (size_t i = 0; i < n; ++i) {
+    const double* z = z4 + 4 * static_cast<size_t>(perm[i]);
+    for (size_t c = 0; c < 3; ++c) {
+      const double vi = model.anchored[i] ? 0.0 : vd[3 * i + c] + z[c];
+      vd[3 * i + c] = vi;
+      xd[3 * i + c] += h * vi;
+    }
+  }
+}
+
 // One step with the precomputed predictor (DS99): the implicit system with the constant matrix,
 //   (M + h(γI + C_L) + h²K_L) Δv = h (f(x, v) − γ v − h K_L v),
 // solved with the stored inverse or factor, then corrected, then x⁺ = x + h v⁺.
@@ -613,8 +678,13 @@ void step_predictor(const SpringModel& model, SpringState& s, const ToolState* t
   const double h = model.options.dt;
   const double gamma = model.options.point_damping;
   const Eigen::Index n = s.x.rows();
-  all_forces(model, s, tool, true);  // s.work holds the external forces afterwards; s.rhs −h K_L v
   const bool correct = model.options.angular_momentum_correction && net.anchors.empty();
+  if (!model.all_pairs && model.predictor.kind == SpringSolver::sparse && !model.supernodes.empty() &&
+      spring::spring_pass_padded_available(model) && s.soa.size() >= fused_scratch(model)) {
+    step_sparse_fused(model, s, tool, correct);
+    return;
+  }
+  all_forces(model, s, tool, true);  // s.work holds the external forces afterwards; s.rhs −h K_L v
   Vec3 ext_torque = Vec3::Zero();
   if (correct)
     for (Eigen::Index i = 0; i < n; ++i) ext_torque += s.x.row(i).transpose().cross(s.work.row(i).transpose());
@@ -963,16 +1033,14 @@ __attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(con
 
 }  // namespace
 
-void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat3d& x, const RowMat3d& v,
-                                          RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised,
-                                          SpringKernel kernel) noexcept {
+bool spring_pass_padded_available(const SpringModel& model) noexcept {
+  return has_avx2_fma() && !model.network.springs.empty();
+}
+
+double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const RowMat3d& v, const RowMat3d* f0,
+                           double* scratch, SpringKernel kernel) noexcept {
   const SpringNetwork& net = model.network;
-  const double h = model.options.dt;
   const size_t n = net.size();
-  if (!vectorised || kernel == SpringKernel::scalar || !has_avx2_fma() || net.springs.empty() || scratch == nullptr) {
-    spring_pass_scalar(net, h, x.data(), v.data(), f.data(), r.data());
-    return;
-  }
   // The padded copies start at the first 32-byte boundary in scratch (at most 3 doubles in).
   const std::uintptr_t at = reinterpret_cast<std::uintptr_t>(scratch);
   double* p = scratch + ((32 - at % 32) % 32) / sizeof(double);
@@ -983,11 +1051,32 @@ void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat
     x4[4 * i] = xd[3 * i]; x4[4 * i + 1] = xd[3 * i + 1]; x4[4 * i + 2] = xd[3 * i + 2]; x4[4 * i + 3] = 0;
     v4[4 * i] = vd[3 * i]; v4[4 * i + 1] = vd[3 * i + 1]; v4[4 * i + 2] = vd[3 * i + 2]; v4[4 * i + 3] = 0;
   }
-  std::fill(f4, f4 + 8 * n, 0.0);  // f4 and r4
+  if (f0 == nullptr) {
+    std::fill(f4, f4 + 4 * n, 0.0);
+  } else {
+    const double* fd = f0->data();
+    for (size_t i = 0; i < n; ++i) {
+      f4[4 * i] = fd[3 * i]; f4[4 * i + 1] = fd[3 * i + 1]; f4[4 * i + 2] = fd[3 * i + 2]; f4[4 * i + 3] = 0;
+    }
+  }
+  std::fill(r4, r4 + 4 * n, 0.0);
   if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512())
-    spring_pass_avx512(net, h, x4, v4, f4, r4);
+    spring_pass_avx512(net, model.options.dt, x4, v4, f4, r4);
   else
-    spring_pass_avx2(net, h, x4, v4, f4, r4);
+    spring_pass_avx2(net, model.options.dt, x4, v4, f4, r4);
+  return p;
+}
+
+void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat3d& x, const RowMat3d& v,
+                                          RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised,
+                                          SpringKernel kernel) noexcept {
+  const size_t n = model.network.size();
+  if (!vectorised || kernel == SpringKernel::scalar || !spring_pass_padded_available(model) || scratch == nullptr) {
+    spring_pass_scalar(model.network, model.options.dt, x.data(), v.data(), f.data(), r.data());
+    return;
+  }
+  const double* p = spring_pass_padded(model, x, v, nullptr, scratch, kernel);
+  const double *f4 = p + 8 * n, *r4 = p + 12 * n;
   double* fd = f.data();
   double* rd = r.data();
   for (size_t i = 0; i < n; ++i)
