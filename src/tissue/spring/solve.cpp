@@ -111,6 +111,21 @@ inline size_t wide_entry(size_t w, size_t r, size_t row, size_t c) noexcept {
   return sh.group_start(g) + (at / 8 - g) * 8 * gw + 8 * (c - 8 * g) + at % 8;
 }
 
+// Forward through a group's diagonal tile (gw columns of eight values, entries on and above the
+// diagonal zero), column by column, on the group's rows u = (ux, uy, uz) from its first column: in
+// A, the arithmetic type (double, or float in the AVX-512 float path); values T widened to A.
+template <typename T, typename A>
+__attribute__((always_inline)) inline void tile_forward(const T* pan, size_t gw, A* ux, A* uy, A* uz) noexcept {
+  for (size_t c = 0; c < gw; ++c) {
+    const T* l = pan + 8 * c;
+    const A a0 = ux[c], a1 = uy[c], a2 = uz[c];
+    for (size_t j = c + 1; j < 8; ++j) {
+      const A v = static_cast<A>(l[j]);
+      ux[j] -= v * a0; uy[j] -= v * a1; uz[j] -= v * a2;
+    }
+  }
+}
+
 // bx[q], by[q], bz[q] = the x, y, z of row R[q] (z4[4 R[q]] … + 2) for q < count rounded down to
 // eight, eight rows at a time with AVX-512 gathers; returns how many rows it did. (A call, not
 // inlined: the sweeps' template has no target of its own.)
@@ -141,6 +156,7 @@ __attribute__((target("avx512f,avx2"), noinline)) size_t gather_rows_avx512(cons
 #define PALPATE_F32 __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"), always_inline)) inline
 // The entries the sweeps call (calls, not inlined: the sweeps' template has no target of its own).
 #define PALPATE_F32_CALL __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"), noinline))
+#define PALPATE_F32_LAMBDA __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"), always_inline))
 
 // Columns 2p and 2p + 1 of a panel (16 values), or column 2p alone (the upper lanes zero) when the
 // group's width is odd and p is its last pair.
@@ -160,6 +176,22 @@ PALPATE_F32 float hsum8(__m256 v) noexcept {
   const __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
   const __m128 t = _mm_add_ps(s, _mm_movehl_ps(s, s));
   return _mm_cvtss_f32(_mm_add_ss(t, _mm_movehdup_ps(t)));
+}
+
+// f.operator()<P, Odd>() for a group of gw columns (1 … 8): P pairs, the last a single column when
+// gw is odd — compile-time counts, so the pairs' registers are not spilled.
+template <typename F>
+PALPATE_F32 void by_group_width(size_t gw, F&& f) noexcept {
+  switch (gw) {
+    case 8: f.template operator()<4, false>(); break;
+    case 7: f.template operator()<4, true>(); break;
+    case 6: f.template operator()<3, false>(); break;
+    case 5: f.template operator()<3, true>(); break;
+    case 4: f.template operator()<2, false>(); break;
+    case 3: f.template operator()<2, true>(); break;
+    case 2: f.template operator()<1, false>(); break;
+    default: f.template operator()<1, true>(); break;
+  }
 }
 
 // Forward: per group, the diagonal tile, then every later panel's rows −= L_panel t_group with the
@@ -197,24 +229,9 @@ PALPATE_F32_CALL void wide_forward_f32(const float* V, size_t w, size_t r, float
   for (size_t grp = 0; grp < G; ++grp) {
     const size_t c0 = 8 * grp, gw = group_width(grp, w);
     const float* pan = V + sh.group_start(grp);
-    for (size_t c = 0; c < gw; ++c) {
-      const float* l = pan + 8 * c;
-      const float a0 = fx[c0 + c], a1 = fy[c0 + c], a2 = fz[c0 + c];
-      for (size_t j = c + 1; j < 8; ++j) {
-        fx[c0 + j] -= l[j] * a0; fy[c0 + j] -= l[j] * a1; fz[c0 + j] -= l[j] * a2;
-      }
-    }
+    tile_forward(pan, gw, fx + c0, fy + c0, fz + c0);
     const float* pp = pan + 8 * gw;
-    switch (gw) {
-      case 8: wide_forward_panels<4, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 7: wide_forward_panels<4, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 6: wide_forward_panels<3, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 5: wide_forward_panels<3, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 4: wide_forward_panels<2, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 3: wide_forward_panels<2, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 2: wide_forward_panels<1, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      default: wide_forward_panels<1, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-    }
+    by_group_width(gw, [&]<size_t P, bool Odd>() PALPATE_F32_LAMBDA { wide_forward_panels<P, Odd>(pp, gw, c0, c0 + 8, H, fx, fy, fz); });
   }
 }
 
@@ -260,16 +277,7 @@ PALPATE_F32_CALL void wide_back_f32(const float* V, size_t w, size_t r, float* f
     const size_t c0 = 8 * grp, gw = group_width(grp, w);
     const float* pan = V + sh.group_start(grp);
     const float* pp = pan + 8 * gw;
-    switch (gw) {
-      case 8: wide_back_panels<4, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 7: wide_back_panels<4, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 6: wide_back_panels<3, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 5: wide_back_panels<3, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 4: wide_back_panels<2, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 3: wide_back_panels<2, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      case 2: wide_back_panels<1, false>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-      default: wide_back_panels<1, true>(pp, gw, c0, c0 + 8, H, fx, fy, fz); break;
-    }
+    by_group_width(gw, [&]<size_t P, bool Odd>() PALPATE_F32_LAMBDA { wide_back_panels<P, Odd>(pp, gw, c0, c0 + 8, H, fx, fy, fz); });
     for (size_t c = gw; c-- > 0;) {
       const float* l = pan + 8 * c;
       float t0 = 0, t1 = 0, t2 = 0;
@@ -296,6 +304,7 @@ PALPATE_F32_CALL size_t gather_rows_f32(const int* R, size_t count, const double
 }
 #undef PALPATE_F32
 #undef PALPATE_F32_CALL
+#undef PALPATE_F32_LAMBDA
 #pragma GCC diagnostic pop
 
 // Forward substitution L y = b, then y ← D⁻¹ y, then back substitution Lᵀ x = y, in place on the
@@ -324,6 +333,32 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
   float* __restrict fy = fx + m;
   float* __restrict fz = fx + 2 * m;
   auto at = [z4](int vertex) { return z4 + 4 * static_cast<size_t>(vertex); };
+  // A wide block's rows in (ux, uy, uz) — double, or float in the F32 path — forward: its own rows
+  // from z and the others (to H) zero; after, its own rows back to z and the rows below added to theirs.
+  auto forward_in = [&](auto* ux, auto* uy, auto* uz, int f, size_t w, size_t H) {
+    using U = std::remove_pointer_t<decltype(ux)>;
+    for (size_t i = 0; i < w; ++i) {
+      const double* z = at(f + static_cast<int>(i));
+      ux[i] = static_cast<U>(z[0]); uy[i] = static_cast<U>(z[1]); uz[i] = static_cast<U>(z[2]);
+    }
+    std::fill(ux + w, ux + H, U{0});
+    std::fill(uy + w, uy + H, U{0});
+    std::fill(uz + w, uz + H, U{0});
+  };
+  auto forward_out = [&](const auto* ux, const auto* uy, const auto* uz, int f, size_t w, const int* R, size_t r,
+                         size_t W) {
+    for (size_t i = 0; i < w; ++i) {
+      double* z = at(f + static_cast<int>(i));
+      z[0] = ux[i]; z[1] = uy[i]; z[2] = uz[i];
+    }
+    for (size_t q = 0; q < r; ++q) {
+      double* z = at(R[q]);
+      const d4 u = {ux[W + q], uy[W + q], uz[W + q], 0.0};
+      PALPATE_LOAD4(y, z);
+      y += u;
+      PALPATE_STORE4(z, y);
+    }
+  };
   for (int k = 0; k < S; ++k) {
     const int f = fc[k];
     const size_t w = static_cast<size_t>(fc[k + 1] - f), r = static_cast<size_t>(rs[k + 1] - rs[k]);
@@ -356,46 +391,16 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
     const WideShape sh = wide_shape(w, r);
     const size_t W = 8 * sh.own_panels, H = 8 * sh.panels, G = (w + 7) / 8;
     if constexpr (F32) {
-      for (size_t i = 0; i < w; ++i) {
-        const double* z = at(f + static_cast<int>(i));
-        fx[i] = static_cast<float>(z[0]); fy[i] = static_cast<float>(z[1]); fz[i] = static_cast<float>(z[2]);
-      }
-      std::fill(fx + w, fx + H, 0.0f);
-      std::fill(fy + w, fy + H, 0.0f);
-      std::fill(fz + w, fz + H, 0.0f);
+      forward_in(fx, fy, fz, f, w, H);
       wide_forward_f32(reinterpret_cast<const float*>(V), w, r, fx, fy, fz);
-      for (size_t i = 0; i < w; ++i) {
-        double* z = at(f + static_cast<int>(i));
-        z[0] = fx[i]; z[1] = fy[i]; z[2] = fz[i];
-      }
-      for (size_t q = 0; q < r; ++q) {
-        double* z = at(R[q]);
-        const d4 u = {fx[W + q], fy[W + q], fz[W + q], 0.0};
-        PALPATE_LOAD4(y, z);
-        y += u;
-        PALPATE_STORE4(z, y);
-      }
+      forward_out(fx, fy, fz, f, w, R, r, W);
       continue;
     }
-    for (size_t i = 0; i < w; ++i) {
-      const double* z = at(f + static_cast<int>(i));
-      gx[i] = z[0]; gy[i] = z[1]; gz[i] = z[2];
-    }
-    std::fill(gx + w, gx + H, 0.0);
-    std::fill(gy + w, gy + H, 0.0);
-    std::fill(gz + w, gz + H, 0.0);
+    forward_in(gx, gy, gz, f, w, H);
     for (size_t grp = 0; grp < G; ++grp) {
       const size_t c0 = 8 * grp, gw = group_width(grp, w);
       const T* pan = V + sh.group_start(grp);
-      // The diagonal tile, column by column (entries on and above the diagonal are zero).
-      for (size_t c = 0; c < gw; ++c) {
-        const T* l = pan + 8 * c;
-        const double a0 = gx[c0 + c], a1 = gy[c0 + c], a2 = gz[c0 + c];
-        for (size_t j = c + 1; j < 8; ++j) {
-          const double v = static_cast<double>(l[j]);
-          gx[c0 + j] -= v * a0; gy[c0 + j] -= v * a1; gz[c0 + j] -= v * a2;
-        }
-      }
+      tile_forward(pan, gw, gx + c0, gy + c0, gz + c0);
       const T* pp = pan + 8 * gw;
       for (size_t row = c0 + 8; row < H; row += 8, pp += 8 * gw) {
         d8 ux, uy, uz;
@@ -411,17 +416,7 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
         std::memcpy(gz + row, &uz, sizeof uz);
       }
     }
-    for (size_t i = 0; i < w; ++i) {
-      double* z = at(f + static_cast<int>(i));
-      z[0] = gx[i]; z[1] = gy[i]; z[2] = gz[i];
-    }
-    for (size_t q = 0; q < r; ++q) {
-      double* z = at(R[q]);
-      const d4 u = {gx[W + q], gy[W + q], gz[W + q], 0.0};
-      PALPATE_LOAD4(y, z);
-      y += u;
-      PALPATE_STORE4(z, y);
-    }
+    forward_out(gx, gy, gz, f, w, R, r, W);
   }
   const int n = fc[S];
   for (int i = 0; i < n; ++i) {
