@@ -121,27 +121,65 @@ TEST(SpringSolve, SupernodesPartitionTheColumnsAndHoldEveryEntryOfL) {
     const auto nonzero = [](const auto& v) {
       return std::count_if(v.begin(), v.end(), [](double x) { return x != 0.0; });
     };
-    EXPECT_EQ(nonzero(sn.values), nonzero(p->value)) << "padding " << padding;
+    // (the wide blocks' values and the narrow ones' chunks together).
+    EXPECT_EQ(nonzero(sn.values) + nonzero(sn.chunk_values), nonzero(p->value)) << "padding " << padding;
     // The dense blocks (w(w − 1)/2 + r w entries each) hold at most (1 + padding) times the
-    // entries of L, exactly as many without padding. Storage adds only the wide blocks' padding:
-    // a start on a multiple of eight values, and within the block's own rows and its rows below,
-    // each rounded up to a multiple of eight, the zeros of the tiles on the diagonal.
-    size_t dense = 0, rounding = 0;
-    for (size_t k = 0; k + 1 < sn.first_column.size(); ++k) {
+    // entries of L, exactly as many without padding. The wide ones' storage adds only their
+    // padding: a start on a multiple of eight values, and within the block's own rows and its rows
+    // below, each rounded up to a multiple of eight, the zeros of the tiles on the diagonal.
+    size_t dense = 0, dense_wide = 0, rounding = 0;
+    const int S = static_cast<int>(sn.first_column.size()) - 1;
+    ASSERT_EQ(sn.chunk_start.size(), static_cast<size_t>(S) + 1);
+    int narrow_columns = 0;
+    for (int k = 0; k < S; ++k) {
       const size_t w = static_cast<size_t>(sn.first_column[k + 1] - sn.first_column[k]);
       const size_t r = static_cast<size_t>(sn.row_start[k + 1] - sn.row_start[k]);
       dense += w * (w - 1) / 2 + r * w;
       if (w >= 4) {
+        dense_wide += w * (w - 1) / 2 + r * w;
         EXPECT_EQ(sn.value_start[k] % 8, 0U) << "block " << k;
         rounding += 7 + ((w + 7) / 8 * 8 + (r + 7) / 8 * 8) * w - (w * (w - 1) / 2 + r * w);
+        EXPECT_EQ(sn.chunk_start[k + 1], sn.chunk_start[k]) << "wide block " << k << " has no chunks";
+        EXPECT_EQ(sn.run_end[k], k + 1);
+        EXPECT_EQ(sn.run_begin[k], k);
+        continue;
       }
+      // A narrow block's chunks: each of its columns' entries of L in ceil(entries / 4) chunks, in
+      // column order, rows below the pivot; the last chunk's padding is the pivot's row with 0.
+      // Its run reaches back to the last wide block and on to the next.
+      EXPECT_TRUE(sn.run_begin[k] == 0 || sn.first_column[sn.run_begin[k]] - sn.first_column[sn.run_begin[k] - 1] >= 4);
+      EXPECT_TRUE(sn.run_end[k] == S || sn.first_column[sn.run_end[k] + 1] - sn.first_column[sn.run_end[k]] >= 4);
+      EXPECT_LE(sn.run_begin[k], k);
+      EXPECT_GT(sn.run_end[k], k);
+      int q = sn.chunk_start[k];
+      for (int c = sn.first_column[k]; c < sn.first_column[k + 1]; ++c, ++narrow_columns) {
+        const int entries = p->col_start[c + 1] - p->col_start[c];
+        for (int e = 0; e < entries; e += 4, ++q) {
+          ASSERT_LT(q, sn.chunk_start[k + 1]);
+          EXPECT_EQ(sn.pivot[q], c);
+          for (int l = 0; l < 4; ++l) {
+            const size_t slot = 4 * static_cast<size_t>(q) + static_cast<size_t>(l);
+            if (e + l < entries) {
+              EXPECT_GT(sn.chunk_rows[slot], c);
+              EXPECT_EQ(sn.chunk_values[slot], p->value[static_cast<size_t>(p->col_start[c] + e + l)]);
+            } else {
+              EXPECT_EQ(sn.chunk_rows[slot], c);
+              EXPECT_EQ(sn.chunk_values[slot], 0.0);
+            }
+          }
+        }
+      }
+      EXPECT_EQ(q, sn.chunk_start[k + 1]) << "narrow block " << k;
     }
+    EXPECT_GT(narrow_columns, 0);
+    EXPECT_EQ(sn.chunk_rows.size(), 4 * sn.pivot.size());
+    EXPECT_EQ(sn.chunk_values.size(), 4 * sn.pivot.size());
     EXPECT_LE(static_cast<double>(dense), (1.0 + padding) * static_cast<double>(p->value.size()) + 1e-9);
     if (padding == 0.0) {
       EXPECT_EQ(dense, p->value.size());
     }
-    EXPECT_GE(sn.values.size(), dense);
-    EXPECT_LE(sn.values.size(), dense + rounding);
+    EXPECT_GE(sn.values.size(), dense_wide);
+    EXPECT_LE(sn.values.size(), dense_wide + rounding);
     EXPECT_EQ(reinterpret_cast<std::uintptr_t>(sn.values.data()) % 64, 0U);
   }
 }

@@ -142,15 +142,28 @@ struct SpringSupernodes {
   std::vector<int> first_column;  // (S + 1) supernode k holds columns [first_column[k], first_column[k + 1])
   std::vector<int> row_start;     // (S + 1) its rows below the block: rows[row_start[k] .. row_start[k + 1])
   std::vector<int> rows;          // permuted row indices below each supernode, ascending
-  std::vector<size_t> value_start;  // (S + 1) its values (zeros where L has none): a narrow block
-                                    // column by column, column i of width w holding its w − 1 − i
-                                    // entries in the block's triangle, then its r entries in the rows
-                                    // below; a wide one (4 columns or more) from a multiple of eight,
-                                    // as a dense block of its own rows and its rows below, in
-                                    // panels of eight rows (solve.cpp, WideShape)
+  std::vector<size_t> value_start;  // (S + 1) a wide block's values (4 columns or more; zeros where
+                                    // L has none): from a multiple of eight, a dense block of its
+                                    // own rows and its rows below, in panels of eight rows
+                                    // (solve.cpp, WideShape); none for a narrow block
   std::vector<double, CacheLineAllocator<double>> values;  // L's entries in that layout
   std::vector<float, CacheLineAllocator<float>> values_single;  // the same in float instead
                                                                  // (SpringModelOptions::single_precision)
+  // The narrow blocks (1 to 3 columns; mostly single columns of a few entries, the nested
+  // dissection's leaves) as one program of chunks of four entries, so the sweeps run through them
+  // without a loop per block or per column: chunk q holds pivot[q] (a column), four of its rows
+  // chunk_rows[4q …] and L's values there chunk_values[4q …] (only L's own entries; a column's last
+  // chunk padded with its pivot row and the value 0). A column's chunks follow each other, columns
+  // in order. Supernode k's chunks are [chunk_start[k], chunk_start[k + 1]) (none for a wide one);
+  // run_end[k] is the first wide supernode after narrow k (S when none), run_begin[k] the first of
+  // the narrow run holding k (for a wide k: k + 1 and k).
+  std::vector<int> chunk_start;   // (S + 1)
+  std::vector<int> run_end;       // (S)
+  std::vector<int> run_begin;     // (S)
+  std::vector<int> pivot;         // (C) the column of each chunk
+  std::vector<int> chunk_rows;    // (4C)
+  std::vector<double, CacheLineAllocator<double>> chunk_values;        // (4C), or empty in float
+  std::vector<float, CacheLineAllocator<float>> chunk_values_single;   // (4C) with values_single
   int max_width = 0;              // widest supernode
   int max_height = 0;             // tallest supernode, width + rows below, each rounded up to 8 in a
                                   // wide block (sizes the solve's scratch)

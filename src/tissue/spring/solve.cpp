@@ -75,11 +75,6 @@ constexpr size_t kGatherWidth = 4;
 
 inline size_t round8(size_t x) noexcept { return (x + 7) & ~static_cast<size_t>(7); }
 
-// Offset of column i's values inside a narrow block of width w with r rows below: columns are
-// stored one after the other, column i holding its w − 1 − i triangle entries and then its r block
-// entries.
-inline size_t column_offset(size_t i, size_t w, size_t r) noexcept { return i * (w - 1 + r) - i * (i - 1) / 2; }
-
 // A wide block (w ≥ kGatherWidth columns, r rows below) is a dense block of rows: its own w rows
 // padded to W = w rounded up to 8, then its r rows below padded to a multiple of 8, in panels of
 // eight rows (panel p holds rows 8p … 8p + 7). Its columns form groups of eight (the last of w mod 8
@@ -333,6 +328,13 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
   float* __restrict fy = fx + m;
   float* __restrict fz = fx + 2 * m;
   auto at = [z4](int vertex) { return z4 + 4 * static_cast<size_t>(vertex); };
+  // The narrow blocks' chunk program (SpringSupernodes).
+  const int* cst = sn.chunk_start.data();
+  const int* piv = sn.pivot.data();
+  const int* crow = sn.chunk_rows.data();
+  const T* cval;
+  if constexpr (std::is_same_v<T, float>) cval = sn.chunk_values_single.data();
+  else cval = sn.chunk_values.data();
   // A wide block's rows in (ux, uy, uz) — double, or float in the F32 path — forward: its own rows
   // from z and the others (to H) zero; after, its own rows back to z and the rows below added to theirs.
   auto forward_in = [&](auto* ux, auto* uy, auto* uz, int f, size_t w, size_t H) {
@@ -365,27 +367,23 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
     const int* R = rows + rs[k];
     const T* V = values + vs[k];
     if (w < kGatherWidth) {
-      // Narrow block: update z in place, column by column (gathering would not pay off).
-      for (size_t i = 0; i < w; ++i) {
-        const T* c = V + column_offset(i, w, r);
-        const int fi = f + static_cast<int>(i);
-        PALPATE_LOAD4(a, at(fi));
-        const size_t t = w - 1 - i;
-        for (size_t j = 0; j < t; ++j) {
-          double* z = at(fi + 1 + static_cast<int>(j));
-          const double v = static_cast<double>(c[j]);
-          PALPATE_LOAD4(y, z);
-          y -= d4{v, v, v, v} * a;
-          PALPATE_STORE4(z, y);
-        }
-        for (size_t q = 0; q < r; ++q) {
-          double* z = at(R[q]);
-          const double v = static_cast<double>(c[t + q]);
+      // A run of narrow blocks: its chunks in order, z[row] −= L(row, pivot) z[pivot] in place
+      // (a padding entry subtracts 0 from the pivot's own row).
+      const int K = sn.run_end[static_cast<size_t>(k)];
+      for (int q = cst[k], end = cst[K]; q < end; ++q) {
+        PALPATE_LOAD4(a, at(piv[q]));
+        const int* rr = crow + 4 * static_cast<size_t>(q);
+        const T* vv = cval + 4 * static_cast<size_t>(q);
+#pragma GCC unroll 4
+        for (int l = 0; l < 4; ++l) {
+          double* z = at(rr[l]);
+          const double v = static_cast<double>(vv[l]);
           PALPATE_LOAD4(y, z);
           y -= d4{v, v, v, v} * a;
           PALPATE_STORE4(z, y);
         }
       }
+      k = K - 1;
       continue;
     }
     const WideShape sh = wide_shape(w, r);
@@ -431,34 +429,26 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
     const int* R = rows + rs[k];
     const T* V = values + vs[k];
     if (w < kGatherWidth) {
-      for (size_t i = w; i-- > 0;) {
-        const T* c = V + column_offset(i, w, r);
-        const int fi = f + static_cast<int>(i);
-        PALPATE_LOAD4(a, at(fi));
-        const size_t t = w - 1 - i;
-        for (size_t j = 0; j < t; ++j) {
-          const double v = static_cast<double>(c[j]);
-          PALPATE_LOAD4(y, at(fi + 1 + static_cast<int>(j)));
-          a -= d4{v, v, v, v} * y;
-        }
-        // Two chains of multiply-adds in flight (one would wait on each one's latency).
-        d4 a2 = {0, 0, 0, 0};
-        size_t q = 0;
-        for (; q + 2 <= r; q += 2) {
-          const double v0 = static_cast<double>(c[t + q]), v1 = static_cast<double>(c[t + q + 1]);
-          PALPATE_LOAD4(y0, at(R[q]));
-          PALPATE_LOAD4(y1, at(R[q + 1]));
-          a -= d4{v0, v0, v0, v0} * y0;
-          a2 -= d4{v1, v1, v1, v1} * y1;
-        }
-        if (q < r) {
-          const double v = static_cast<double>(c[t + q]);
-          PALPATE_LOAD4(y, at(R[q]));
-          a -= d4{v, v, v, v} * y;
-        }
-        a += a2;
-        PALPATE_STORE4(at(fi), a);
+      // A run of narrow blocks, its chunks last first: z[pivot] −= Σ L(row, pivot) z[row] (a
+      // padding entry reads the pivot's own row times 0), two chains of multiply-adds per chunk.
+      const int K0 = sn.run_begin[static_cast<size_t>(k)];
+      for (int q = cst[k + 1], begin = cst[K0]; q-- > begin;) {
+        const int* rr = crow + 4 * static_cast<size_t>(q);
+        const T* vv = cval + 4 * static_cast<size_t>(q);
+        const double v0 = static_cast<double>(vv[0]), v1 = static_cast<double>(vv[1]);
+        const double v2 = static_cast<double>(vv[2]), v3 = static_cast<double>(vv[3]);
+        PALPATE_LOAD4(y0, at(rr[0]));
+        PALPATE_LOAD4(y1, at(rr[1]));
+        PALPATE_LOAD4(y2, at(rr[2]));
+        PALPATE_LOAD4(y3, at(rr[3]));
+        const d4 s01 = d4{v0, v0, v0, v0} * y0 + d4{v1, v1, v1, v1} * y1;
+        const d4 s23 = d4{v2, v2, v2, v2} * y2 + d4{v3, v3, v3, v3} * y3;
+        double* zp = at(piv[q]);
+        PALPATE_LOAD4(a, zp);
+        a -= s01 + s23;
+        PALPATE_STORE4(zp, a);
       }
+      k = K0;
       continue;
     }
     const WideShape sh = wide_shape(w, r);
@@ -760,7 +750,7 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
     sn.max_width = std::max(sn.max_width, static_cast<int>(w));
     sn.max_height = std::max(sn.max_height, static_cast<int>(w + r));
     if (w < kGatherWidth) {
-      sn.value_start[k + 1] = sn.value_start[k] + w * (w - 1) / 2 + r * w;
+      sn.value_start[k + 1] = sn.value_start[k];  // in the chunk program instead
     } else {
       sn.value_start[k] = round8(sn.value_start[k]);  // zeros after the block before
       sn.value_start[k + 1] = sn.value_start[k] + wide_block_size(w, r);
@@ -769,30 +759,53 @@ SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double m
   }
   sn.values.assign(sn.value_start[S], 0.0);
   std::vector<int> position(static_cast<size_t>(n), -1);  // block row of each row index
+  std::vector<std::pair<int, double>> entries;
+  sn.chunk_start.assign(S + 1, 0);
   for (size_t k = 0; k < S; ++k) {
     const int f0 = sn.first_column[k], e = sn.first_column[k + 1];
     const size_t w = static_cast<size_t>(e - f0);
+    sn.chunk_start[k + 1] = sn.chunk_start[k];
+    if (w < kGatherWidth) {
+      // Narrow: each column's entries of L (its rows ascending) in chunks of four, the last padded.
+      for (int c = f0; c < e; ++c) {
+        entries.clear();
+        for (int q = cs[c]; q < cs[c + 1]; ++q) entries.emplace_back(rw[q], p.value[static_cast<size_t>(q)]);
+        std::sort(entries.begin(), entries.end());
+        for (size_t q = 0; q < entries.size(); q += 4) {
+          sn.pivot.push_back(c);
+          for (size_t l = q; l < q + 4; ++l) {
+            sn.chunk_rows.push_back(l < entries.size() ? entries[l].first : c);
+            sn.chunk_values.push_back(l < entries.size() ? entries[l].second : 0.0);
+          }
+          ++sn.chunk_start[k + 1];
+        }
+      }
+      continue;
+    }
     for (int q = sn.row_start[k]; q < sn.row_start[k + 1]; ++q) position[static_cast<size_t>(sn.rows[static_cast<size_t>(q)])] = q - sn.row_start[k];
     const size_t rcount = static_cast<size_t>(sn.row_start[k + 1] - sn.row_start[k]);
-    const bool wide = w >= kGatherWidth;
     for (int c = f0; c < e; ++c) {
       const size_t i = static_cast<size_t>(c - f0);
-      // Narrow: column i's entries in the triangle (block row `at` > i is entry at − (i + 1)), then
-      // the rows below. Indices, not pointers: a block may hold no values at all (then
-      // values.data() may be null).
-      const size_t col = sn.value_start[k] + column_offset(i, w, rcount);
       for (int q = cs[c]; q < cs[c + 1]; ++q) {
         const int r = rw[q];
         const size_t row = r < e ? static_cast<size_t>(r - f0) : w + static_cast<size_t>(position[static_cast<size_t>(r)]);
-        const size_t to = wide ? sn.value_start[k] + wide_entry(w, rcount, row, i)
-                               : (row < w ? col + row - (i + 1) : col + (w - 1 - i) + (row - w));
-        sn.values[to] = p.value[static_cast<size_t>(q)];
+        sn.values[sn.value_start[k] + wide_entry(w, rcount, row, i)] = p.value[static_cast<size_t>(q)];
       }
     }
   }
+  // The narrow runs' ends, for the sweeps to go through a run's chunks in one loop.
+  sn.run_end.assign(S, 0);
+  sn.run_begin.assign(S, 0);
+  const auto narrow = [&](size_t k) { return sn.first_column[k + 1] - sn.first_column[k] < static_cast<int>(kGatherWidth); };
+  for (size_t k = 0; k < S; ++k)
+    sn.run_begin[k] = narrow(k) && k > 0 && narrow(k - 1) ? sn.run_begin[k - 1] : static_cast<int>(k);
+  for (size_t k = S; k-- > 0;)
+    sn.run_end[k] = !narrow(k) ? static_cast<int>(k) + 1 : k + 1 < S && narrow(k + 1) ? sn.run_end[k + 1] : static_cast<int>(k) + 1;
   if (single) {
     sn.values_single.assign(sn.values.begin(), sn.values.end());
     decltype(sn.values)().swap(sn.values);
+    sn.chunk_values_single.assign(sn.chunk_values.begin(), sn.chunk_values.end());
+    decltype(sn.chunk_values)().swap(sn.chunk_values);
   }
   return sn;
 }

@@ -33,8 +33,8 @@ SpringSupernodes make_supernodes(const SpringPredictor& predictor, bool single =
 size_t supernodal_scratch(const SpringPredictor& predictor, const SpringSupernodes& supernodes);
 
 // x = A⁻¹ b for b, x (n x 3) with A = Pᵀ L D Lᵀ P: permute into four doubles per vertex (x, y, z,
-// 0), forward substitution block by block (narrow blocks in place, one four-wide multiply-add per
-// entry; a wide block's triangle solved on a structure-of-arrays copy of its columns and its rows
+// 0), forward substitution block by block (a run of narrow blocks as one loop over its chunks of
+// four entries, in place, one four-wide multiply-add per entry; a wide block's triangle solved on a structure-of-arrays copy of its columns and its rows
 // below updated by a product over its panels of eight rows), scale by D⁻¹, back substitution (the
 // same, transposed), permute back. The three coordinates share every value of L read. Float
 // values are widened and accumulated in double, except in the wide blocks of the x86-64-v4 build:
