@@ -213,7 +213,7 @@ struct SpringState {
   std::vector<float> soa_single;  // all-pairs kernel in single precision: (9n) as soa, in float
   std::vector<double> soa;  // all-pairs kernel: (9N + 8), N = n rounded up to 8, structure-of-arrays
                             // copies from the first 64-byte boundary; other networks'
-                            // spring pass: (16n + 3) x, v, f, r padded to four doubles per vertex;
+                            // spring pass: (16n + 7) x and v, f and r, eight doubles per vertex;
                             // sparse solve: (4n + 3·max_height, rounded up to 8) the permuted right-hand side as
                             // (x, y, z, 0) per vertex, and the block being solved (used one after the other;
                             // the fused sparse step puts the solve's after the spring pass's, both at once)

@@ -1,5 +1,5 @@
 // forces.h — the predictor's spring pass for generic (not all-pairs) networks, in its scalar
-// reference and AVX2 forms (internal; implemented in step.cpp, used by the step and the tests).
+// reference and AVX2 / AVX-512 forms (internal; implemented in step.cpp, used by the step and the tests).
 #pragma once
 
 #include <palpate/spring.h>
@@ -10,27 +10,28 @@ namespace palpate::spring {
 // right-hand side's −h K_L v term added to r (DS99 §4.2):
 //   f_i += [k_e (l − L_e) + c_e (v_j − v_i)·u] u,  f_j −= the same,  u = (x_j − x_i)/l (none when l = 0),
 //   r_i += h k_e (v_j − v_i),  r_j −= the same.
-// x, v, f, r are (n x 3). vectorised: four springs at a time with AVX2 on padded copies of x, v
-// (scratch: spring_pass_scratch() doubles); the scalar loop otherwise or without AVX2 + FMA.
-// The AVX2 pass takes the same square root and division as the scalar one; the AVX-512 one 1/l
-// from rsqrt14 and two Newton steps. All agree to round-off.
+// x, v, f, r are (n x 3). vectorised: four springs at a time with AVX2 or AVX-512 on padded
+// copies of x, v (scratch: spring_pass_scratch() doubles); the scalar loop otherwise or without
+// AVX2 + FMA. The AVX2 pass takes the same square root and division as the scalar one; the AVX-512
+// one 1/l from rsqrt14 and two Newton steps. All agree to round-off.
 // kernel: avx2 forces the AVX2 pass where AVX-512 would be chosen (best); scalar the scalar loop.
 enum class SpringKernel;
 void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat3d& x, const RowMat3d& v,
                                           RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised,
                                           SpringKernel kernel) noexcept;
 
-// The vectorised pass on the padded layout, without copying its sums out: x, v are copied into x4,
-// v4 (four doubles per vertex: x, y, z, 0), f4 starts from f0 (zero when null), r4 from zero, and
-// the pass adds the springs' forces to f4 and the −h K_L v term to r4. Returns x4; v4, f4, r4 follow
-// it 4n doubles apart (scratch: spring_pass_scratch() doubles). Needs has_avx2_fma() and at least
-// one spring (the caller checks: spring_pass_padded_available).
+// The vectorised pass on the padded layout, without copying its sums out: x, v are copied into xv
+// (eight doubles per vertex, one cache line: x, y, z, 0, vx, vy, vz, 0), and the pass adds the
+// springs' forces and the −h K_L v term into fr (the same: fx, fy, fz, 0, rx, ry, rz, 0), whose
+// forces start from f0 (zero when null) and the rest from zero. Returns xv (at the first 64-byte
+// boundary in scratch); fr follows it 8n doubles on (scratch: spring_pass_scratch() doubles). Needs
+// has_avx2_fma() and at least one spring (the caller checks: spring_pass_padded_available).
 double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const RowMat3d& v, const RowMat3d* f0,
                            double* scratch, SpringKernel kernel) noexcept;
 bool spring_pass_padded_available(const SpringModel& model) noexcept;
 
-// Doubles of scratch the vectorised pass needs: (16n + 3), x, v, f and r with four doubles per vertex
-// from the first 32-byte boundary on (scratch is only 8-byte aligned).
+// Doubles of scratch the vectorised pass needs: (16n + 7), xv and fr with eight doubles per vertex
+// from the first 64-byte boundary on (scratch is only 8-byte aligned).
 size_t spring_pass_scratch(const SpringModel& model);
 
 // Whether this processor runs the AVX2 + FMA kernels (the vectorised pass falls back otherwise).

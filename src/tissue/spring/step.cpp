@@ -627,7 +627,7 @@ void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState
     for (size_t i = 0; i < n; ++i)
       ext_torque += s.x.row(static_cast<Eigen::Index>(i)).transpose().cross(s.work.row(static_cast<Eigen::Index>(i)).transpose());
   double* p = spring::spring_pass_padded(model, s.x, s.v, nullptr, s.soa.data(), spring::SpringKernel::best);
-  const double *f4 = p + 8 * n, *r4 = p + 12 * n;
+  const double* fr = p + 8 * n;  // per vertex: the springs' force, 0, their −h K_L v, 0
   double* z4 = p + 16 * n;
   const int* perm = model.predictor.perm.data();
   const double* work = s.work.data();
@@ -639,12 +639,12 @@ void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState
       z[0] = z[1] = z[2] = 0;
       continue;
     }
-    for (size_t c = 0; c < 3; ++c) z[c] = (r4[4 * i + c] + ((work[3 * i + c] + f4[4 * i + c]) - gamma * v[3 * i + c])) * h;
+    for (size_t c = 0; c < 3; ++c) z[c] = (fr[8 * i + 4 + c] + ((work[3 * i + c] + fr[8 * i + c]) - gamma * v[3 * i + c])) * h;
   }
   Vec3 anchor = Vec3::Zero();
   for (int a : net.anchors) {
     const size_t i = static_cast<size_t>(a);
-    anchor += Vec3(work[3 * i] + f4[4 * i], work[3 * i + 1] + f4[4 * i + 1], work[3 * i + 2] + f4[4 * i + 2]);
+    anchor += Vec3(work[3 * i] + fr[8 * i], work[3 * i + 1] + fr[8 * i + 1], work[3 * i + 2] + fr[8 * i + 2]);
   }
   s.anchor_force = anchor;
   spring::solve_supernodal_permuted(model.predictor, model.supernodes, z4, z4 + 4 * n);
@@ -876,7 +876,7 @@ double* align64(double* p) noexcept {
   return p + ((64 - at % 64) % 64) / sizeof(double);
 }
 
-size_t spring_pass_scratch(const SpringModel& model) { return 16 * model.network.size() + 3; }
+size_t spring_pass_scratch(const SpringModel& model) { return 16 * model.network.size() + 7; }
 
 namespace {
 
@@ -909,12 +909,32 @@ __attribute__((target("avx2,fma"), always_inline)) inline __m256d hsum4(__m256d 
   return _mm256_add_pd(_mm256_permute2f128_pd(t0, t1, 0x20), _mm256_permute2f128_pd(t0, t1, 0x31));
 }
 
-// The AVX2 pass, four springs at a time. x4, v4, f4, r4 are (4n): a vertex's x, y, z and a zero
-// (so each vertex is one aligned 256-bit load or store and no lane is masked); the springs' sums
-// go to f4, r4 one vertex at a time in spring order, so springs sharing a vertex in a group of
-// four are summed like the scalar loop's.
-__attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& net, double h, const double* x4,
-                                                           const double* v4, double* f4, double* r4) noexcept {
+// The springs from e on, one at a time (the vectorised passes' last s mod 4), on the padded layout.
+void spring_pass_tail(const SpringNetwork& net, double h, size_t e, const double* xv, double* fr) noexcept {
+  const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
+  for (; e < net.springs.size(); ++e) {
+    const size_t i = 8 * static_cast<size_t>(net.springs[e][0]), j = 8 * static_cast<size_t>(net.springs[e][1]);
+    const double dx = xv[j] - xv[i], dy = xv[j + 1] - xv[i + 1], dz = xv[j + 2] - xv[i + 2];
+    const double wx = xv[j + 4] - xv[i + 4], wy = xv[j + 5] - xv[i + 5], wz = xv[j + 6] - xv[i + 6];
+    const double kh = h * K[e];
+    fr[i + 4] += kh * wx; fr[i + 5] += kh * wy; fr[i + 6] += kh * wz;
+    fr[j + 4] -= kh * wx; fr[j + 5] -= kh * wy; fr[j + 6] -= kh * wz;
+    const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
+    if (!(l > 0)) continue;
+    const double inv_l = 1.0 / l;
+    const double g = (K[e] * (l - L[e]) + C[e] * (wx * dx + wy * dy + wz * dz) * inv_l) * inv_l;
+    fr[i] += g * dx; fr[i + 1] += g * dy; fr[i + 2] += g * dz;
+    fr[j] -= g * dx; fr[j + 1] -= g * dy; fr[j + 2] -= g * dz;
+  }
+}
+
+// The AVX2 pass, four springs at a time. xv is (8n): a vertex's x, y, z, 0, vx, vy, vz, 0 (one
+// 64-byte line, so each vertex is one cache line, its position and velocity aligned 256-bit loads
+// and no lane is masked); fr the same for the springs' sums, f then r. The sums go to fr one vertex
+// at a time in spring order, so springs sharing a vertex in a group of four are summed like the
+// scalar loop's.
+__attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& net, double h, const double* xv,
+                                                           double* fr) noexcept {
   const size_t s = net.springs.size();
   const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
   const __m256d hv = _mm256_set1_pd(h), zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
@@ -923,10 +943,10 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
     size_t a[4], b[4];
     __m256d d[4], w[4];
     for (int q = 0; q < 4; ++q) {
-      a[q] = 4 * static_cast<size_t>(net.springs[e + q][0]);
-      b[q] = 4 * static_cast<size_t>(net.springs[e + q][1]);
-      d[q] = _mm256_sub_pd(_mm256_load_pd(x4 + b[q]), _mm256_load_pd(x4 + a[q]));
-      w[q] = _mm256_sub_pd(_mm256_load_pd(v4 + b[q]), _mm256_load_pd(v4 + a[q]));
+      a[q] = 8 * static_cast<size_t>(net.springs[e + q][0]);
+      b[q] = 8 * static_cast<size_t>(net.springs[e + q][1]);
+      d[q] = _mm256_sub_pd(_mm256_load_pd(xv + b[q]), _mm256_load_pd(xv + a[q]));
+      w[q] = _mm256_sub_pd(_mm256_load_pd(xv + b[q] + 4), _mm256_load_pd(xv + a[q] + 4));
     }
     const __m256d l2 = hsum4(_mm256_mul_pd(d[0], d[0]), _mm256_mul_pd(d[1], d[1]), _mm256_mul_pd(d[2], d[2]),
                              _mm256_mul_pd(d[3], d[3]));
@@ -948,88 +968,69 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
     for (int q = 0; q < 4; ++q) {
       const __m256d fd = _mm256_mul_pd(gq[q], d[q]);
       const __m256d rw = _mm256_mul_pd(kq[q], w[q]);
-      _mm256_store_pd(r4 + a[q], _mm256_add_pd(_mm256_load_pd(r4 + a[q]), rw));
-      _mm256_store_pd(r4 + b[q], _mm256_sub_pd(_mm256_load_pd(r4 + b[q]), rw));
-      _mm256_store_pd(f4 + a[q], _mm256_add_pd(_mm256_load_pd(f4 + a[q]), fd));
-      _mm256_store_pd(f4 + b[q], _mm256_sub_pd(_mm256_load_pd(f4 + b[q]), fd));
+      _mm256_store_pd(fr + a[q] + 4, _mm256_add_pd(_mm256_load_pd(fr + a[q] + 4), rw));
+      _mm256_store_pd(fr + b[q] + 4, _mm256_sub_pd(_mm256_load_pd(fr + b[q] + 4), rw));
+      _mm256_store_pd(fr + a[q], _mm256_add_pd(_mm256_load_pd(fr + a[q]), fd));
+      _mm256_store_pd(fr + b[q], _mm256_sub_pd(_mm256_load_pd(fr + b[q]), fd));
     }
   }
-  for (; e < s; ++e) {  // the last s mod 4 springs
-    const size_t i = 4 * static_cast<size_t>(net.springs[e][0]), j = 4 * static_cast<size_t>(net.springs[e][1]);
-    const double dx = x4[j] - x4[i], dy = x4[j + 1] - x4[i + 1], dz = x4[j + 2] - x4[i + 2];
-    const double wx = v4[j] - v4[i], wy = v4[j + 1] - v4[i + 1], wz = v4[j + 2] - v4[i + 2];
-    const double kh = h * K[e];
-    r4[i] += kh * wx; r4[i + 1] += kh * wy; r4[i + 2] += kh * wz;
-    r4[j] -= kh * wx; r4[j + 1] -= kh * wy; r4[j + 2] -= kh * wz;
-    const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
-    if (!(l > 0)) continue;
-    const double inv_l = 1.0 / l;
-    const double g = (K[e] * (l - L[e]) + C[e] * (wx * dx + wy * dy + wz * dz) * inv_l) * inv_l;
-    f4[i] += g * dx; f4[i + 1] += g * dy; f4[i + 2] += g * dz;
-    f4[j] -= g * dx; f4[j + 1] -= g * dy; f4[j + 2] -= g * dz;
-  }
+  spring_pass_tail(net, h, e, xv, fr);
 }
 
-// The same with AVX-512 VL (256-bit registers): 1/l without the divider.
-__attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(const SpringNetwork& net, double h, const double* x4,
-                                                           const double* v4, double* f4, double* r4) noexcept {
+#pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see all_pairs_avx512
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+// The same with AVX-512, on whole vertices: a spring's end is one 512-bit load of its position
+// and velocity and one 512-bit read-modify-write of its force and −h K_L v sums (half the memory
+// operations of the AVX2 pass). 1/l without the divider: rsqrt14 and two Newton steps. Each value
+// is computed as in the AVX2 pass's order of operations except 1/l (same round-off level).
+__attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(const SpringNetwork& net, double h,
+                                                                              const double* xv, double* fr) noexcept {
   const size_t s = net.springs.size();
   const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
   const __m256d hv = _mm256_set1_pd(h), zero = _mm256_setzero_pd();
   const __m256d half = _mm256_set1_pd(0.5), three = _mm256_set1_pd(3.0);
+  // Lane selections: (first, second) halves of two pair-sums, and each spring's (g, g, g, g, kh, kh, kh, kh).
+  const __m512i lo = _mm512_set_epi64(13, 12, 5, 4, 9, 8, 1, 0), hi = _mm512_set_epi64(15, 14, 7, 6, 11, 10, 3, 2);
+  const __m512i pick[4] = {_mm512_set_epi64(4, 4, 4, 4, 0, 0, 0, 0), _mm512_set_epi64(5, 5, 5, 5, 1, 1, 1, 1),
+                           _mm512_set_epi64(6, 6, 6, 6, 2, 2, 2, 2), _mm512_set_epi64(7, 7, 7, 7, 3, 3, 3, 3)};
   size_t e = 0;
   for (; e + 4 <= s; e += 4) {
     size_t a[4], b[4];
-    __m256d d[4], w[4];
+    __m512d dw[4], p[4];
     for (int q = 0; q < 4; ++q) {
-      a[q] = 4 * static_cast<size_t>(net.springs[e + q][0]);
-      b[q] = 4 * static_cast<size_t>(net.springs[e + q][1]);
-      d[q] = _mm256_sub_pd(_mm256_load_pd(x4 + b[q]), _mm256_load_pd(x4 + a[q]));
-      w[q] = _mm256_sub_pd(_mm256_load_pd(v4 + b[q]), _mm256_load_pd(v4 + a[q]));
+      a[q] = 8 * static_cast<size_t>(net.springs[e + q][0]);
+      b[q] = 8 * static_cast<size_t>(net.springs[e + q][1]);
+      dw[q] = _mm512_sub_pd(_mm512_load_pd(xv + b[q]), _mm512_load_pd(xv + a[q]));  // (d, w)
+      p[q] = _mm512_mul_pd(dw[q], _mm512_shuffle_f64x2(dw[q], dw[q], 0x44));          // (d d, w d)
     }
-    const __m256d l2 = hsum4(_mm256_mul_pd(d[0], d[0]), _mm256_mul_pd(d[1], d[1]), _mm256_mul_pd(d[2], d[2]),
-                             _mm256_mul_pd(d[3], d[3]));
-    const __m256d dw = hsum4(_mm256_mul_pd(d[0], w[0]), _mm256_mul_pd(d[1], w[1]), _mm256_mul_pd(d[2], w[2]),
-                             _mm256_mul_pd(d[3], w[3]));
+    // Per 128-bit lane, the pairs' sums side by side (hsum4's first step), then both halves added:
+    // (d·d of the four springs, d·w of the four), each ((x + y) + (z + 0)) as in hsum4.
+    const __m512d t0 = _mm512_add_pd(_mm512_unpacklo_pd(p[0], p[1]), _mm512_unpackhi_pd(p[0], p[1]));
+    const __m512d t1 = _mm512_add_pd(_mm512_unpacklo_pd(p[2], p[3]), _mm512_unpackhi_pd(p[2], p[3]));
+    const __m512d sums = _mm512_add_pd(_mm512_permutex2var_pd(t0, lo, t1), _mm512_permutex2var_pd(t0, hi, t1));
+    const __m256d l2 = _mm512_castpd512_pd256(sums), dwv = _mm512_extractf64x4_pd(sums, 1);
     // 1/l from rsqrt14 (relative error below 2⁻¹⁴) and two Newton steps (to round-off, see
-    // all_pairs_avx512): no square root or division; g = k (1 − L r) + c (d·w) r².
+    // all_pairs_avx512): g = k (1 − L r) + c (d·w) r².
     const __m256d ok = _mm256_cmp_pd(l2, zero, _CMP_GT_OQ);  // l > 0 (false for NaN), as the scalar loop
     __m256d r = _mm256_rsqrt14_pd(l2);
     for (int it = 0; it < 2; ++it)
       r = _mm256_mul_pd(_mm256_mul_pd(half, r), _mm256_fnmadd_pd(_mm256_mul_pd(l2, r), r, three));
     const __m256d k = _mm256_loadu_pd(K + e);
     __m256d g = _mm256_fnmadd_pd(_mm256_mul_pd(k, _mm256_loadu_pd(L + e)), r, k);
-    g = _mm256_fmadd_pd(_mm256_mul_pd(_mm256_loadu_pd(C + e), dw), _mm256_mul_pd(r, r), g);
+    g = _mm256_fmadd_pd(_mm256_mul_pd(_mm256_loadu_pd(C + e), dwv), _mm256_mul_pd(r, r), g);
     g = _mm256_and_pd(g, ok);
-    const __m256d kh = _mm256_mul_pd(hv, k);
-    const __m256d gq[4] = {_mm256_permute4x64_pd(g, 0x00), _mm256_permute4x64_pd(g, 0x55),
-                           _mm256_permute4x64_pd(g, 0xAA), _mm256_permute4x64_pd(g, 0xFF)};
-    const __m256d kq[4] = {_mm256_permute4x64_pd(kh, 0x00), _mm256_permute4x64_pd(kh, 0x55),
-                           _mm256_permute4x64_pd(kh, 0xAA), _mm256_permute4x64_pd(kh, 0xFF)};
+    const __m512d gk = _mm512_insertf64x4(_mm512_castpd256_pd512(g), _mm256_mul_pd(hv, k), 1);
     for (int q = 0; q < 4; ++q) {
-      const __m256d fd = _mm256_mul_pd(gq[q], d[q]);
-      const __m256d rw = _mm256_mul_pd(kq[q], w[q]);
-      _mm256_store_pd(r4 + a[q], _mm256_add_pd(_mm256_load_pd(r4 + a[q]), rw));
-      _mm256_store_pd(r4 + b[q], _mm256_sub_pd(_mm256_load_pd(r4 + b[q]), rw));
-      _mm256_store_pd(f4 + a[q], _mm256_add_pd(_mm256_load_pd(f4 + a[q]), fd));
-      _mm256_store_pd(f4 + b[q], _mm256_sub_pd(_mm256_load_pd(f4 + b[q]), fd));
+      const __m512d c = _mm512_mul_pd(_mm512_permutexvar_pd(pick[q], gk), dw[q]);  // (g d, kh w)
+      _mm512_store_pd(fr + a[q], _mm512_add_pd(_mm512_load_pd(fr + a[q]), c));
+      _mm512_store_pd(fr + b[q], _mm512_sub_pd(_mm512_load_pd(fr + b[q]), c));
     }
   }
-  for (; e < s; ++e) {  // the last s mod 4 springs
-    const size_t i = 4 * static_cast<size_t>(net.springs[e][0]), j = 4 * static_cast<size_t>(net.springs[e][1]);
-    const double dx = x4[j] - x4[i], dy = x4[j + 1] - x4[i + 1], dz = x4[j + 2] - x4[i + 2];
-    const double wx = v4[j] - v4[i], wy = v4[j + 1] - v4[i + 1], wz = v4[j + 2] - v4[i + 2];
-    const double kh = h * K[e];
-    r4[i] += kh * wx; r4[i + 1] += kh * wy; r4[i + 2] += kh * wz;
-    r4[j] -= kh * wx; r4[j + 1] -= kh * wy; r4[j + 2] -= kh * wz;
-    const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
-    if (!(l > 0)) continue;
-    const double inv_l = 1.0 / l;
-    const double g = (K[e] * (l - L[e]) + C[e] * (wx * dx + wy * dy + wz * dz) * inv_l) * inv_l;
-    f4[i] += g * dx; f4[i + 1] += g * dy; f4[i + 2] += g * dz;
-    f4[j] -= g * dx; f4[j + 1] -= g * dy; f4[j + 2] -= g * dz;
-  }
+  spring_pass_tail(net, h, e, xv, fr);
 }
+
+#pragma GCC diagnostic pop
 
 }  // namespace
 
@@ -1041,29 +1042,26 @@ double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const Ro
                            double* scratch, SpringKernel kernel) noexcept {
   const SpringNetwork& net = model.network;
   const size_t n = net.size();
-  // The padded copies start at the first 32-byte boundary in scratch (at most 3 doubles in).
-  const std::uintptr_t at = reinterpret_cast<std::uintptr_t>(scratch);
-  double* p = scratch + ((32 - at % 32) % 32) / sizeof(double);
-  double *x4 = p, *v4 = p + 4 * n, *f4 = p + 8 * n, *r4 = p + 12 * n;
+  double* p = align64(scratch);  // at most 7 doubles in
+  double *xv = p, *fr = p + 8 * n;
   const double* xd = x.data();
   const double* vd = v.data();
   for (size_t i = 0; i < n; ++i) {
-    x4[4 * i] = xd[3 * i]; x4[4 * i + 1] = xd[3 * i + 1]; x4[4 * i + 2] = xd[3 * i + 2]; x4[4 * i + 3] = 0;
-    v4[4 * i] = vd[3 * i]; v4[4 * i + 1] = vd[3 * i + 1]; v4[4 * i + 2] = vd[3 * i + 2]; v4[4 * i + 3] = 0;
+    double* o = xv + 8 * i;
+    o[0] = xd[3 * i]; o[1] = xd[3 * i + 1]; o[2] = xd[3 * i + 2]; o[3] = 0;
+    o[4] = vd[3 * i]; o[5] = vd[3 * i + 1]; o[6] = vd[3 * i + 2]; o[7] = 0;
   }
-  if (f0 == nullptr) {
-    std::fill(f4, f4 + 4 * n, 0.0);
-  } else {
+  std::fill(fr, fr + 8 * n, 0.0);
+  if (f0 != nullptr) {
     const double* fd = f0->data();
     for (size_t i = 0; i < n; ++i) {
-      f4[4 * i] = fd[3 * i]; f4[4 * i + 1] = fd[3 * i + 1]; f4[4 * i + 2] = fd[3 * i + 2]; f4[4 * i + 3] = 0;
+      fr[8 * i] = fd[3 * i]; fr[8 * i + 1] = fd[3 * i + 1]; fr[8 * i + 2] = fd[3 * i + 2];
     }
   }
-  std::fill(r4, r4 + 4 * n, 0.0);
   if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512())
-    spring_pass_avx512(net, model.options.dt, x4, v4, f4, r4);
+    spring_pass_avx512(net, model.options.dt, xv, fr);
   else
-    spring_pass_avx2(net, model.options.dt, x4, v4, f4, r4);
+    spring_pass_avx2(net, model.options.dt, xv, fr);
   return p;
 }
 
@@ -1075,14 +1073,13 @@ void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat
     spring_pass_scalar(model.network, model.options.dt, x.data(), v.data(), f.data(), r.data());
     return;
   }
-  const double* p = spring_pass_padded(model, x, v, nullptr, scratch, kernel);
-  const double *f4 = p + 8 * n, *r4 = p + 12 * n;
+  const double* fr = spring_pass_padded(model, x, v, nullptr, scratch, kernel) + 8 * n;
   double* fd = f.data();
   double* rd = r.data();
   for (size_t i = 0; i < n; ++i)
     for (size_t c = 0; c < 3; ++c) {
-      fd[3 * i + c] += f4[4 * i + c];
-      rd[3 * i + c] += r4[4 * i + c];
+      fd[3 * i + c] += fr[8 * i + c];
+      rd[3 * i + c] += fr[8 * i + 4 + c];
     }
 }
 
