@@ -135,7 +135,7 @@ struct CacheLineAllocator {
 // The per-tick form of a sparse predictor's factor L (unit lower triangular, permuted), derived
 // from SpringPredictor when the model is built and never stored in files. Runs of consecutive
 // columns with (nearly) the same rows below them form a supernode (Liu, Ng & Peyton 1993; relaxed:
-// entries L lacks are stored as zeros, at most half as many as it has), kept as one dense block, so
+// entries L lacks are stored as zeros, at most a quarter as many as it has), kept as one dense block, so
 // the triangular solves stream contiguous values with one row index per block row instead of one
 // per entry. S supernodes.
 struct SpringSupernodes {

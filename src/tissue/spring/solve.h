@@ -26,7 +26,7 @@ Result<SpringPredictor> build_predictor(const SpringNetwork& network, const Spri
 // explicit zeros: relaxed amalgamation, Ashcraft & Grimes 1989) and is at most max_width wide.
 // max_padding = 0 gives exact (fundamental-like) supernodes.
 // single: keep the values in float (values_single) instead of double.
-SpringSupernodes make_supernodes(const SpringPredictor& predictor, bool single = false, double max_padding = 0.5,
+SpringSupernodes make_supernodes(const SpringPredictor& predictor, bool single = false, double max_padding = 0.25,
                                  int max_width = 128);
 
 // Doubles of scratch solve_supernodal needs: 4n + 3·max_height rounded up to 8.
