@@ -1,5 +1,6 @@
 // bench_spring.cpp — cost of one mass-spring tick (DS99 predictor, dense and sparse), of
 // precomputing and loading a predictor, and of a baseline that re-factorises every tick.
+#include <palpate/mesh.h>
 #include <palpate/spring.h>
 
 #include "tissue/spring/forces.h"
@@ -43,6 +44,24 @@ SpringNetwork organ(double radius_in_spacings) {
   return net;
 }
 
+// A real organ's shape at about 10,000 vertices: SOFA's liver (data/meshes/liver_tet_boundary.obj,
+// the boundary of liver.msh) scaled to 23 cm and filled with tetrahedra by Gmsh (edges ≤ 4.7 mm:
+// 10,3xx vertices), springs on the tet edges, the lowest 5% of its height anchored.
+SpringNetwork liver() {
+  const auto surface =
+      load_surface(std::filesystem::path(PALPATE_DATA_DIR) / "meshes" / "liver_tet_boundary.obj", 0.035);
+  auto tets = tetrahedralize(*surface, 0.0047);
+  SpringNetworkOptions o;
+  o.topology = SpringTopology::tet_edges;
+  o.stiffness = 100.0;
+  o.mass = 0.5;
+  auto net = *make_spring_network(*tets, o, "liver");
+  const double lo = net.rest.col(1).minCoeff(), hi = net.rest.col(1).maxCoeff();
+  for (Eigen::Index i = 0; i < net.rest.rows(); ++i)
+    if (net.rest(i, 1) < lo + 0.05 * (hi - lo)) net.anchors.push_back(static_cast<int>(i));
+  return net;
+}
+
 SpringNetwork paper_organ() {
   SpringNetworkOptions o;
   o.topology = SpringTopology::all_pairs;
@@ -75,6 +94,7 @@ const SpringModel& cached(const std::string& key) {
     else if (name == "block10") net = block(10);
     else if (name == "block20") net = block(20);
     else if (name == "organ10k") net = organ(13.4);
+    else if (name == "liver10k") net = liver();
     else if (name == "organ50k") net = organ(22.9);
     SpringModelOptions o = options(solver);
     o.single_precision = single;
@@ -130,22 +150,26 @@ void BM_SpringTick_Block10_Sparse(benchmark::State& s) { tick(s, "block10"); }
 void BM_SpringTick_Block20_Sparse(benchmark::State& s) { tick(s, "block20"); }
 void BM_SpringTick_Organ10k_Sparse(benchmark::State& s) { tick(s, "organ10k"); }
 void BM_SpringTick_Organ50k_Sparse(benchmark::State& s) { tick(s, "organ50k"); }
+void BM_SpringTick_Liver10k_Sparse(benchmark::State& s) { tick(s, "liver10k"); }
 BENCHMARK(BM_SpringTick_PaperAllPairs500)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block10_Dense)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block10_Sparse)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block20_Sparse)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Organ10k_Sparse)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Organ50k_Sparse)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Liver10k_Sparse)->Unit(benchmark::kMicrosecond);
 
 // The same cases with the predictor in float (SpringModelOptions::single_precision).
 void BM_SpringTick_PaperAllPairs500_Single(benchmark::State& s) { tick(s, "paper/single"); }
 void BM_SpringTick_Block10_Sparse_Single(benchmark::State& s) { tick(s, "block10/single"); }
 void BM_SpringTick_Block20_Sparse_Single(benchmark::State& s) { tick(s, "block20/single"); }
 void BM_SpringTick_Organ10k_Sparse_Single(benchmark::State& s) { tick(s, "organ10k/single"); }
+void BM_SpringTick_Liver10k_Sparse_Single(benchmark::State& s) { tick(s, "liver10k/single"); }
 BENCHMARK(BM_SpringTick_PaperAllPairs500_Single)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block10_Sparse_Single)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block20_Sparse_Single)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Organ10k_Sparse_Single)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Liver10k_Sparse_Single)->Unit(benchmark::kMicrosecond);
 
 // The paper case's all-pairs force kernel alone, per instruction set (one this processor lacks
 // falls back to the next narrower), in one process so the ratios are fair on a shared machine.
@@ -219,10 +243,14 @@ void BM_SpringSolve_Block20(benchmark::State& s) { solve_only(s, "block20"); }
 void BM_SpringSolve_Block20_Single(benchmark::State& s) { solve_only(s, "block20/single"); }
 void BM_SpringSolve_Organ10k(benchmark::State& s) { solve_only(s, "organ10k"); }
 void BM_SpringSolve_Organ10k_Single(benchmark::State& s) { solve_only(s, "organ10k/single"); }
+void BM_SpringSolve_Liver10k(benchmark::State& s) { solve_only(s, "liver10k"); }
+void BM_SpringSolve_Liver10k_Single(benchmark::State& s) { solve_only(s, "liver10k/single"); }
 BENCHMARK(BM_SpringSolve_Block20)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringSolve_Block20_Single)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringSolve_Organ10k)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringSolve_Organ10k_Single)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringSolve_Liver10k)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringSolve_Liver10k_Single)->Unit(benchmark::kMicrosecond);
 
 // Baseline solve in the same process: AMD ordering and the column-by-column substitution of the
 // first version (the rest of the tick is the current code).
@@ -306,9 +334,11 @@ void baseline(benchmark::State& state, const std::string& key) {
 void BM_SpringBaseline_Block10_RefactorEachTick(benchmark::State& s) { baseline(s, "block10"); }
 void BM_SpringBaseline_Block20_RefactorEachTick(benchmark::State& s) { baseline(s, "block20"); }
 void BM_SpringBaseline_Organ10k_RefactorEachTick(benchmark::State& s) { baseline(s, "organ10k"); }
+void BM_SpringBaseline_Liver10k_RefactorEachTick(benchmark::State& s) { baseline(s, "liver10k"); }
 BENCHMARK(BM_SpringBaseline_Block10_RefactorEachTick)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringBaseline_Block20_RefactorEachTick)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringBaseline_Organ10k_RefactorEachTick)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringBaseline_Liver10k_RefactorEachTick)->Unit(benchmark::kMicrosecond);
 
 // Pre-processing the 10,000-vertex organ, then loading its predictor file.
 void BM_SpringPrecompute_Organ10k(benchmark::State& state) {
@@ -320,6 +350,15 @@ void BM_SpringPrecompute_Organ10k(benchmark::State& state) {
   state.counters["vertices"] = static_cast<double>(net.size());
 }
 BENCHMARK(BM_SpringPrecompute_Organ10k)->Unit(benchmark::kMillisecond)->Iterations(3);
+void BM_SpringPrecompute_Liver10k(benchmark::State& state) {
+  const SpringNetwork net = liver();
+  for (auto _ : state) {
+    auto p = build_predictor(net, options(SpringSolver::sparse));
+    benchmark::DoNotOptimize(p.ok());
+  }
+  state.counters["vertices"] = static_cast<double>(net.size());
+}
+BENCHMARK(BM_SpringPrecompute_Liver10k)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 void BM_SpringLoadPredictor_Organ10k(benchmark::State& state) {
   const SpringModel& model = cached("organ10k");
