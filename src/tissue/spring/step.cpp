@@ -611,11 +611,43 @@ size_t fused_scratch(const SpringModel& model) {
   return spring::spring_pass_scratch(model) + spring::supernodal_scratch(model.predictor, model.supernodes);
 }
 
+// The fused step's right-hand side, row perm[i] of z4 = h (r + ((f_ext + f) − γ v)), zero when i
+// is anchored; a vertex's three values in one 256-bit register (masked loads from the (n x 3)
+// arrays). AVX only, not FMA: each value is the scalar expression's, operation for operation, so
+// the fused and general steps stay equal bit for bit. (Masked stores into v and x were tried for
+// the update and were slower: a masked load after a masked store to the same 32 bytes waits.)
+__attribute__((target("avx2"))) void fused_rhs(size_t n, double h, double gamma, const int* perm,
+                                                 const std::uint8_t* anchored, const double* fr, const double* work,
+                                                 const double* v, double* z4) noexcept {
+  const __m256i m3 = _mm256_set_epi64x(0, -1, -1, -1);
+  const __m256d hv = _mm256_set1_pd(h), gv = _mm256_set1_pd(gamma), zero = _mm256_setzero_pd();
+  for (size_t i = 0; i < n; ++i) {
+    double* z = z4 + 4 * static_cast<size_t>(perm[i]);
+    if (anchored[i]) {
+      _mm256_storeu_pd(z, zero);
+      continue;
+    }
+    const __m256d f = _mm256_add_pd(_mm256_maskload_pd(work + 3 * i, m3), _mm256_load_pd(fr + 8 * i));
+    const __m256d t = _mm256_sub_pd(f, _mm256_mul_pd(gv, _mm256_maskload_pd(v + 3 * i, m3)));
+    _mm256_storeu_pd(z, _mm256_mul_pd(_mm256_add_pd(_mm256_load_pd(fr + 8 * i + 4), t), hv));  // lane 3: 0
+  }
+}
+
+// Δv into dv (n x 3) from the rows perm[i] of z4: whole 256-bit rows stored a vertex apart, each
+// overwriting the last one's padding lane (the last vertex by hand, dv ends there).
+__attribute__((target("avx2"))) void gather_dv(size_t n, const int* perm, const double* z4, double* dv) noexcept {
+  if (n == 0) return;
+  for (size_t i = 0; i + 1 < n; ++i) _mm256_storeu_pd(dv + 3 * i, _mm256_loadu_pd(z4 + 4 * static_cast<size_t>(perm[i])));
+  const double* z = z4 + 4 * static_cast<size_t>(perm[n - 1]);
+  std::memcpy(dv + 3 * (n - 1), z, 3 * sizeof(double));
+}
+
 // step_predictor's sparse step for generic springs with the supernodal factor, fused: the spring
 // pass leaves its sums in the padded layout, one pass over the vertices builds the permuted
 // right-hand side h (f − γ v − h K_L v) straight into the solve's z4 (anchored rows zero), the
-// solve works there in place, and one pass takes v and x from it. No (n x 3) copies of the forces,
-// the right-hand side or Δv; the arithmetic is the general path's, operation for operation.
+// solve works there in place, and Δv is gathered from it for the general path's last lines. No
+// (n x 3) copies of the forces or the right-hand side; the arithmetic is the general path's,
+// operation for operation.
 void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState* tool, bool correct) noexcept {
   const SpringNetwork& net = model.network;
   const double h = model.options.dt;
@@ -626,21 +658,13 @@ void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState
   if (correct)
     for (size_t i = 0; i < n; ++i)
       ext_torque += s.x.row(static_cast<Eigen::Index>(i)).transpose().cross(s.work.row(static_cast<Eigen::Index>(i)).transpose());
-  double* p = spring::spring_pass_padded(model, s.x, s.v, nullptr, s.soa.data(), spring::SpringKernel::best);
+  double* p = spring::spring_pass_padded(model, s.x, s.v, s.soa.data(), spring::SpringKernel::best);
   const double* fr = p + 8 * n;  // per vertex: the springs' force, 0, their −h K_L v, 0
   double* z4 = p + 16 * n;
   const int* perm = model.predictor.perm.data();
   const double* work = s.work.data();
   const double* v = s.v.data();
-  for (size_t i = 0; i < n; ++i) {
-    double* z = z4 + 4 * static_cast<size_t>(perm[i]);
-    z[3] = 0;
-    if (model.anchored[i]) {
-      z[0] = z[1] = z[2] = 0;
-      continue;
-    }
-    for (size_t c = 0; c < 3; ++c) z[c] = (fr[8 * i + 4 + c] + ((work[3 * i + c] + fr[8 * i + c]) - gamma * v[3 * i + c])) * h;
-  }
+  fused_rhs(n, h, gamma, perm, model.anchored.data(), fr, work, v, z4);
   Vec3 anchor = Vec3::Zero();
   for (int a : net.anchors) {
     const size_t i = static_cast<size_t>(a);
@@ -648,26 +672,11 @@ void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState
   }
   s.anchor_force = anchor;
   spring::solve_supernodal_permuted(model.predictor, model.supernodes, z4, z4 + 4 * n);
-  if (correct) {
-    for (size_t i = 0; i < n; ++i) {
-      const double* z = z4 + 4 * static_cast<size_t>(perm[i]);
-      s.dv.row(static_cast<Eigen::Index>(i)) << z[0], z[1], z[2];
-    }
-    correct_angular_momentum(model, s, ext_torque, s.dv);
-    s.v += s.dv;
-    s.x += h * s.v;
-    return;  // free body: no anchors to hold
-  }
-  double* vd = s.v.data();
-  double* xd = s.x.data();
-  for (size_t i = 0; i < n; ++i) {
-    const double* z = z4 + 4 * static_cast<size_t>(perm[i]);
-    for (size_t c = 0; c < 3; ++c) {
-      const double vi = model.anchored[i] ? 0.0 : vd[3 * i + c] + z[c];
-      vd[3 * i + c] = vi;
-      xd[3 * i + c] += h * vi;
-    }
-  }
+  gather_dv(n, perm, z4, s.dv.data());
+  if (correct) correct_angular_momentum(model, s, ext_torque, s.dv);
+  s.v += s.dv;
+  for (int a : net.anchors) s.v.row(a).setZero();
+  s.x += h * s.v;
 }
 
 // One step with the precomputed predictor (DS99): the implicit system with the constant matrix,
@@ -1032,32 +1041,33 @@ __attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(con
 
 #pragma GCC diagnostic pop
 
+// x, v (n x 3) into xv's lines (x, y, z, 0, vx, vy, vz, 0) and fr's lines zeroed, a vertex at a
+// time: two masked 256-bit loads and four aligned stores.
+__attribute__((target("avx2"))) void pack_padded(size_t n, const double* xd, const double* vd, double* xv,
+                                                   double* fr) noexcept {
+  const __m256i m3 = _mm256_set_epi64x(0, -1, -1, -1);
+  const __m256d zero = _mm256_setzero_pd();
+  for (size_t i = 0; i < n; ++i) {
+    _mm256_store_pd(xv + 8 * i, _mm256_maskload_pd(xd + 3 * i, m3));
+    _mm256_store_pd(xv + 8 * i + 4, _mm256_maskload_pd(vd + 3 * i, m3));
+    _mm256_store_pd(fr + 8 * i, zero);
+    _mm256_store_pd(fr + 8 * i + 4, zero);
+  }
+}
+
 }  // namespace
 
 bool spring_pass_padded_available(const SpringModel& model) noexcept {
   return has_avx2_fma() && !model.network.springs.empty();
 }
 
-double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const RowMat3d& v, const RowMat3d* f0,
-                           double* scratch, SpringKernel kernel) noexcept {
+double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const RowMat3d& v, double* scratch,
+                           SpringKernel kernel) noexcept {
   const SpringNetwork& net = model.network;
   const size_t n = net.size();
   double* p = align64(scratch);  // at most 7 doubles in
   double *xv = p, *fr = p + 8 * n;
-  const double* xd = x.data();
-  const double* vd = v.data();
-  for (size_t i = 0; i < n; ++i) {
-    double* o = xv + 8 * i;
-    o[0] = xd[3 * i]; o[1] = xd[3 * i + 1]; o[2] = xd[3 * i + 2]; o[3] = 0;
-    o[4] = vd[3 * i]; o[5] = vd[3 * i + 1]; o[6] = vd[3 * i + 2]; o[7] = 0;
-  }
-  std::fill(fr, fr + 8 * n, 0.0);
-  if (f0 != nullptr) {
-    const double* fd = f0->data();
-    for (size_t i = 0; i < n; ++i) {
-      fr[8 * i] = fd[3 * i]; fr[8 * i + 1] = fd[3 * i + 1]; fr[8 * i + 2] = fd[3 * i + 2];
-    }
-  }
+  pack_padded(n, x.data(), v.data(), xv, fr);
   if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512())
     spring_pass_avx512(net, model.options.dt, xv, fr);
   else
@@ -1073,7 +1083,7 @@ void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat
     spring_pass_scalar(model.network, model.options.dt, x.data(), v.data(), f.data(), r.data());
     return;
   }
-  const double* fr = spring_pass_padded(model, x, v, nullptr, scratch, kernel) + 8 * n;
+  const double* fr = spring_pass_padded(model, x, v, scratch, kernel) + 8 * n;
   double* fd = f.data();
   double* rd = r.data();
   for (size_t i = 0; i < n; ++i)
