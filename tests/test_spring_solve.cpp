@@ -398,45 +398,50 @@ TEST(SpringSolve, SinglePrecisionAllPairsForcesStayWithinTheirBound) {
 }
 
 TEST(SpringSolve, VectorisedSpringPassMatchesTheScalarOne) {
-  // The AVX2 spring pass (four springs at a time on padded copies) against the scalar loop, on a
-  // jittered, moving 5 x 4 x 3 block with per-spring stiffness, damping and rest length, one spring
-  // of zero length (no force, but its −h K_L v term) and a spring count that is not a multiple of 4:
-  // forces and right-hand side agree to 1e-13 of their largest entry.
+  // The AVX2 and AVX-512 spring passes (four springs at a time on padded copies) against the scalar
+  // loop, on a jittered, moving 5 x 4 x 3 block with per-spring rest lengths, one spring of zero
+  // length (no force, but its −h K_L v term) and a spring count that is not a multiple of 4; first
+  // with one stiffness and damping for all (the AVX-512 pass then reads no per-spring K and C),
+  // then with each spring its own: forces and right-hand side agree to 1e-13 of their largest entry.
   SpringNetwork net = block_network(5, 4, 3, 0.01, 300.0, 0.1, false, 0.05);
   for (const std::array<int, 2> extra : {std::array<int, 2>{0, 59}, std::array<int, 2>{1, 58}}) {
     if (net.springs.size() % 4 != 0) break;  // the last group of four is then partial
     net.springs.push_back(extra);
     net.rest_length.push_back(0.02);
-    net.stiffness.push_back(50.0);
-    net.damping.push_back(0.2);
+    net.stiffness.push_back(300.0);
+    net.damping.push_back(0.1);
   }
   ASSERT_NE(net.springs.size() % 4, 0u);
-  for (size_t e = 0; e < net.springs.size(); ++e) {
-    net.stiffness[e] *= 1.0 + 0.5 * std::sin(static_cast<double>(e));
-    net.damping[e] *= 1.0 + 0.5 * std::cos(static_cast<double>(e));
-    net.rest_length[e] *= 1.0 + 0.1 * std::sin(3.0 * static_cast<double>(e));
-  }
-  SpringModelOptions o;
-  o.solver = SpringSolver::sparse;
-  const SpringModel model = must_build(net, o);
-  const Eigen::Index n = static_cast<Eigen::Index>(net.size());
-  RowMat3d x = net.rest + 0.002 * random_rhs(n, 3), v = random_rhs(n, 5);
-  const int a = net.springs[7][0], b = net.springs[7][1];
-  x.row(b) = x.row(a);  // spring 7 has zero length
-  RowMat3d f0 = random_rhs(n, 9), r0 = random_rhs(n, 13);  // both passes add to what is there
-  const RowMat3d f_in = f0, r_in = r0;
-  std::vector<double> scratch(spring::spring_pass_scratch(model) + 1);
-  spring::add_spring_forces_and_stiffness_term(model, x, v, f0, r0, nullptr, false);
+  for (size_t e = 0; e < net.springs.size(); ++e) net.rest_length[e] *= 1.0 + 0.1 * std::sin(3.0 * static_cast<double>(e));
   if (!spring::has_avx2_fma()) std::printf("no AVX2 + FMA here: all ran the scalar pass\n");
   if (!spring::has_avx512()) std::printf("no AVX-512 here: its pass fell back to AVX2\n");
-  // The AVX2 pass and the AVX-512 one (rsqrt14 + Newton instead of the divider).
-  for (const spring::SpringKernel k : {spring::SpringKernel::avx2, spring::SpringKernel::avx512}) {
-    RowMat3d f1 = f_in, r1 = r_in;
-    // Start one double in, so the pass has to find its own 32-byte boundary.
-    spring::add_spring_forces_and_stiffness_term(model, x, v, f1, r1, scratch.data() + 1, true, k);
-    EXPECT_LT((f1 - f0).cwiseAbs().maxCoeff(), 1e-13 * f0.cwiseAbs().maxCoeff());
-    EXPECT_LT((r1 - r0).cwiseAbs().maxCoeff(), 1e-13 * r0.cwiseAbs().maxCoeff());
-    EXPECT_TRUE(f1.allFinite() && r1.allFinite());
+  for (const bool uniform : {true, false}) {
+    if (!uniform)
+      for (size_t e = 0; e < net.springs.size(); ++e) {
+        net.stiffness[e] *= 1.0 + 0.5 * std::sin(static_cast<double>(e));
+        net.damping[e] *= 1.0 + 0.5 * std::cos(static_cast<double>(e));
+      }
+    SpringModelOptions o;
+    o.solver = SpringSolver::sparse;
+    const SpringModel model = must_build(net, o);
+    ASSERT_EQ(model.uniform_stiffness > 0 && model.uniform_damping, uniform);
+    const Eigen::Index n = static_cast<Eigen::Index>(net.size());
+    RowMat3d x = net.rest + 0.002 * random_rhs(n, 3), v = random_rhs(n, 5);
+    const int a = net.springs[7][0], b = net.springs[7][1];
+    x.row(b) = x.row(a);  // spring 7 has zero length
+    RowMat3d f0 = random_rhs(n, 9), r0 = random_rhs(n, 13);  // both passes add to what is there
+    const RowMat3d f_in = f0, r_in = r0;
+    std::vector<double> scratch(spring::spring_pass_scratch(model) + 1);
+    spring::add_spring_forces_and_stiffness_term(model, x, v, f0, r0, nullptr, false);
+    // The AVX2 pass and the AVX-512 one (rsqrt14 + Newton instead of the divider).
+    for (const spring::SpringKernel k : {spring::SpringKernel::avx2, spring::SpringKernel::avx512}) {
+      RowMat3d f1 = f_in, r1 = r_in;
+      // Start one double in, so the pass has to find its own 64-byte boundary.
+      spring::add_spring_forces_and_stiffness_term(model, x, v, f1, r1, scratch.data() + 1, true, k);
+      EXPECT_LT((f1 - f0).cwiseAbs().maxCoeff(), 1e-13 * f0.cwiseAbs().maxCoeff()) << "uniform " << uniform;
+      EXPECT_LT((r1 - r0).cwiseAbs().maxCoeff(), 1e-13 * r0.cwiseAbs().maxCoeff()) << "uniform " << uniform;
+      EXPECT_TRUE(f1.allFinite() && r1.allFinite());
+    }
   }
 }
 

@@ -993,10 +993,15 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
 // and velocity and one 512-bit read-modify-write of its force and −h K_L v sums (half the memory
 // operations of the AVX2 pass). 1/l without the divider: rsqrt14 and two Newton steps. Each value
 // is computed as in the AVX2 pass's order of operations except 1/l (same round-off level).
+// Uniform: every spring has stiffness k0 and damping c0, so the pass reads no per-spring K and C
+// (16 of each spring's 32 bytes; the same values, so the same results bit for bit).
+template <bool Uniform>
 __attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(const SpringNetwork& net, double h,
-                                                                              const double* xv, double* fr) noexcept {
+                                                                              const double* xv, double* fr,
+                                                                              double k0 = 0, double c0 = 0) noexcept {
   const size_t s = net.springs.size();
   const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
+  const __m256d k0v = _mm256_set1_pd(k0), c0v = _mm256_set1_pd(c0);
   const __m256d hv = _mm256_set1_pd(h), zero = _mm256_setzero_pd();
   const __m256d half = _mm256_set1_pd(0.5), three = _mm256_set1_pd(3.0);
   // Lane selections: (first, second) halves of two pair-sums, and each spring's (g, g, g, g, kh, kh, kh, kh).
@@ -1025,9 +1030,10 @@ __attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(con
     __m256d r = _mm256_rsqrt14_pd(l2);
     for (int it = 0; it < 2; ++it)
       r = _mm256_mul_pd(_mm256_mul_pd(half, r), _mm256_fnmadd_pd(_mm256_mul_pd(l2, r), r, three));
-    const __m256d k = _mm256_loadu_pd(K + e);
+    const __m256d k = Uniform ? k0v : _mm256_loadu_pd(K + e);
+    const __m256d damp = Uniform ? c0v : _mm256_loadu_pd(C + e);
     __m256d g = _mm256_fnmadd_pd(_mm256_mul_pd(k, _mm256_loadu_pd(L + e)), r, k);
-    g = _mm256_fmadd_pd(_mm256_mul_pd(_mm256_loadu_pd(C + e), dwv), _mm256_mul_pd(r, r), g);
+    g = _mm256_fmadd_pd(_mm256_mul_pd(damp, dwv), _mm256_mul_pd(r, r), g);
     g = _mm256_and_pd(g, ok);
     const __m512d gk = _mm512_insertf64x4(_mm512_castpd256_pd512(g), _mm256_mul_pd(hv, k), 1);
     for (int q = 0; q < 4; ++q) {
@@ -1068,10 +1074,13 @@ double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const Ro
   double* p = align64(scratch);  // at most 7 doubles in
   double *xv = p, *fr = p + 8 * n;
   pack_padded(n, x.data(), v.data(), xv, fr);
-  if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512())
-    spring_pass_avx512(net, model.options.dt, xv, fr);
-  else
+  const bool uniform = model.uniform_stiffness > 0 && model.uniform_damping;
+  if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512()) {
+    if (uniform) spring_pass_avx512<true>(net, model.options.dt, xv, fr, model.uniform_stiffness, net.damping[0]);
+    else spring_pass_avx512<false>(net, model.options.dt, xv, fr);
+  } else {
     spring_pass_avx2(net, model.options.dt, xv, fr);
+  }
   return p;
 }
 
