@@ -24,6 +24,15 @@ Ran run(const std::string& cmd) { return palpate::test::shell_run(cmd); }
 
 bool have_xvfb() { return std::system("command -v xvfb-run >/dev/null 2>&1") == 0; }
 
+// Under AddressSanitizer the viewer runs without LeakSanitizer: Mesa's GLX driver leaves a few
+// blocks behind that are reported from a module already unloaded at exit, so no suppression
+// (tests/lsan.supp) can name them. Every other leak check stays on.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr const char* kViewLeakCheck = "ASAN_OPTIONS=detect_leaks=0 ";
+#else
+constexpr const char* kViewLeakCheck = "";
+#endif
+
 // The viewer under a private virtual X server with software GL (no GPU needed). The X authority
 // file is ours (-f): without it xvfb-run makes and removes a temporary directory of its own, and
 // that clean-up fails now and then when tests run in parallel (exit 5 after a clean viewer run).
@@ -32,8 +41,8 @@ Ran view(const std::string& args) {
   const fs::path auth = fs::temp_directory_path() /
                         ("palpate_test_view_" + std::to_string(::getpid()) + "_" + std::to_string(serial++) + ".xauth");
   std::ofstream{auth};
-  Ran r = run("LIBGL_ALWAYS_SOFTWARE=1 xvfb-run -a -f '" + auth.string() + "' -s '-screen 0 1024x768x24' " +
-              std::string(PALPATE_CLI) + " view " + args);
+  Ran r = run(std::string(kViewLeakCheck) + "LIBGL_ALWAYS_SOFTWARE=1 xvfb-run -a -f '" + auth.string() +
+              "' -s '-screen 0 1024x768x24' " + std::string(PALPATE_CLI) + " view " + args);
   std::error_code ec;
   fs::remove(auth, ec);
   return r;
