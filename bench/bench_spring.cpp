@@ -31,17 +31,20 @@ SpringNetwork block(int n) {
   return *make_spring_network(spring::make_block(n, n, n, 0.005), o, "block");
 }
 
+// Anchors the bottom cap: the vertices in the lowest 5% of the height.
+SpringNetwork anchor_bottom(SpringNetwork net) {
+  const double lo = net.rest.col(1).minCoeff(), hi = net.rest.col(1).maxCoeff();
+  for (Eigen::Index i = 0; i < net.rest.rows(); ++i)
+    if (net.rest(i, 1) < lo + 0.05 * (hi - lo)) net.anchors.push_back(static_cast<int>(i));
+  return net;
+}
+
 SpringNetwork organ(double radius_in_spacings) {
   SpringNetworkOptions o;
   o.topology = SpringTopology::tet_edges;
   o.stiffness = 100.0;
   o.mass = 0.5;
-  auto net = *make_spring_network(spring::make_tet_ball(radius_in_spacings * 0.002, 0.002), o, "organ");
-  // Anchor the bottom cap (the lowest 5% of the height).
-  const double lo = net.rest.col(1).minCoeff(), hi = net.rest.col(1).maxCoeff();
-  for (Eigen::Index i = 0; i < net.rest.rows(); ++i)
-    if (net.rest(i, 1) < lo + 0.05 * (hi - lo)) net.anchors.push_back(static_cast<int>(i));
-  return net;
+  return anchor_bottom(*make_spring_network(spring::make_tet_ball(radius_in_spacings * 0.002, 0.002), o, "organ"));
 }
 
 // A real organ's shape at about 10,000 vertices: SOFA's liver (data/meshes/liver_tet_boundary.obj,
@@ -55,11 +58,7 @@ SpringNetwork liver() {
   o.topology = SpringTopology::tet_edges;
   o.stiffness = 100.0;
   o.mass = 0.5;
-  auto net = *make_spring_network(*tets, o, "liver");
-  const double lo = net.rest.col(1).minCoeff(), hi = net.rest.col(1).maxCoeff();
-  for (Eigen::Index i = 0; i < net.rest.rows(); ++i)
-    if (net.rest(i, 1) < lo + 0.05 * (hi - lo)) net.anchors.push_back(static_cast<int>(i));
-  return net;
+  return anchor_bottom(*make_spring_network(*tets, o, "liver"));
 }
 
 SpringNetwork paper_organ() {

@@ -23,9 +23,9 @@ void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat
 // The vectorised pass on the padded layout, without copying its sums out: x, v are copied into xv
 // (eight doubles per vertex, one cache line: x, y, z, 0, vx, vy, vz, 0), and the pass adds the
 // springs' forces and the −h K_L v term into fr (the same: fx, fy, fz, 0, rx, ry, rz, 0), from
-// zero. Returns xv (at the first 64-byte
-// boundary in scratch); fr follows it 8n doubles on (scratch: spring_pass_scratch() doubles). Needs
-// has_avx2_fma() and at least one spring (the caller checks: spring_pass_padded_available).
+// zero. Returns xv (at the first 64-byte boundary in scratch); fr follows it 8n doubles on
+// (scratch: spring_pass_scratch() doubles). Needs has_avx2_fma() and at least one spring (the
+// caller checks: spring_pass_padded_available).
 double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const RowMat3d& v, double* scratch,
                            SpringKernel kernel) noexcept;
 bool spring_pass_padded_available(const SpringModel& model) noexcept;

@@ -591,6 +591,14 @@ PALPATE_TWICE(dense_double_impl,
 PALPATE_TWICE(dense_single_impl,
               (const float* W, int n, const double* bx, const double* by, const double* bz, double* x),
               { dense_rows(W, n, bx, by, bz, x); })
+// x's rows (n x 3) from rows perm[i] of z4: whole four-double rows stored three doubles apart,
+// each overwriting the last one's padding (the last row by itself, x ends there).
+PALPATE_TWICE(unpermute_impl, (int n, const int* perm, const double* z4, double* x), {
+  for (int i = 0; i + 1 < n; ++i)
+    std::memcpy(x + 3 * static_cast<size_t>(i), z4 + 4 * static_cast<size_t>(perm[i]), 4 * sizeof(double));
+  if (n > 0)
+    std::memcpy(x + 3 * static_cast<size_t>(n - 1), z4 + 4 * static_cast<size_t>(perm[n - 1]), 3 * sizeof(double));
+})
 #undef PALPATE_TWICE
 
 // The best of the builds this CPU runs, capped at `most`.
@@ -831,10 +839,12 @@ void solve_supernodal(const SpringPredictor& p, const SpringSupernodes& sn, cons
     z[0] = b(i, 0); z[1] = b(i, 1); z[2] = b(i, 2); z[3] = 0;
   }
   solve_supernodal_permuted(p, sn, z4, scratch + 4 * static_cast<size_t>(n), isa);
-  for (int i = 0; i < n; ++i) {
-    const double* z = z4 + 4 * static_cast<size_t>(perm[i]);
-    x(i, 0) = z[0]; x(i, 1) = z[1]; x(i, 2) = z[2];
-  }
+  unpermute_rows(p, z4, x.data());
+}
+
+void unpermute_rows(const SpringPredictor& p, const double* z4, double* x) noexcept {
+  if (has_x86_64_v3()) unpermute_impl_v3(p.n, p.perm.data(), z4, x);
+  else unpermute_impl_base(p.n, p.perm.data(), z4, x);
 }
 
 void solve_columns(const SpringPredictor& p, const RowMat3d& b, RowMat3d& dv, RowMat3d& z) noexcept {

@@ -34,13 +34,14 @@ size_t supernodal_scratch(const SpringPredictor& predictor, const SpringSupernod
 
 // x = A⁻¹ b for b, x (n x 3) with A = Pᵀ L D Lᵀ P: permute into four doubles per vertex (x, y, z,
 // 0), forward substitution block by block (a run of narrow blocks as one loop over its chunks of
-// four entries, in place, one four-wide multiply-add per entry; a wide block's triangle solved on a structure-of-arrays copy of its columns and its rows
-// below updated by a product over its panels of eight rows), scale by D⁻¹, back substitution (the
-// same, transposed), permute back. The three coordinates share every value of L read. Float
-// values are widened and accumulated in double, except in the wide blocks of the x86-64-v4 build:
-// there they are multiplied and summed in float, sixteen lanes (two panel columns) at a time, with
-// the block's rows rounded to float on the way in (the error bound is in tests/test_spring_solve.cpp). scratch holds supernodal_scratch() doubles. b and
-// x may not alias.
+// four entries, in place, one four-wide multiply-add per entry; a wide block's triangle solved on
+// a structure-of-arrays copy of its columns and its rows below updated by a product over its
+// panels of eight rows), scale by D⁻¹, back substitution (the same, transposed), permute back.
+// The three coordinates share every value of L read. Float values are widened and accumulated in
+// double, except in the wide blocks of the x86-64-v4 build: there they are multiplied and summed
+// in float, sixteen lanes (two panel columns) at a time, with the block's rows rounded to float on
+// the way in (the error bound is in tests/test_spring_solve.cpp). scratch holds
+// supernodal_scratch() doubles. b and x may not alias.
 // isa caps the instruction set of the sweeps (the tests run every build; the step takes the best).
 void solve_supernodal(const SpringPredictor& predictor, const SpringSupernodes& supernodes, const RowMat3d& b,
                       RowMat3d& x, double* scratch, SolveIsa isa = SolveIsa::best) noexcept;
@@ -51,6 +52,9 @@ void solve_supernodal(const SpringPredictor& predictor, const SpringSupernodes& 
 // permuted right-hand side in the same pass as something else (the step).
 void solve_supernodal_permuted(const SpringPredictor& predictor, const SpringSupernodes& supernodes, double* z4,
                                double* g, SolveIsa isa = SolveIsa::best) noexcept;
+
+// x (n x 3, row-major) from z4 in the solve's permuted layout: x's row i is z4's row perm[i].
+void unpermute_rows(const SpringPredictor& predictor, const double* z4, double* x) noexcept;
 
 // The reference: the same solve column by column over the CSC factor (one index per entry).
 void solve_columns(const SpringPredictor& predictor, const RowMat3d& b, RowMat3d& x, RowMat3d& scratch) noexcept;

@@ -633,15 +633,6 @@ __attribute__((target("avx2"))) void fused_rhs(size_t n, double h, double gamma,
   }
 }
 
-// Δv into dv (n x 3) from the rows perm[i] of z4: whole 256-bit rows stored a vertex apart, each
-// overwriting the last one's padding lane (the last vertex by hand, dv ends there).
-__attribute__((target("avx2"))) void gather_dv(size_t n, const int* perm, const double* z4, double* dv) noexcept {
-  if (n == 0) return;
-  for (size_t i = 0; i + 1 < n; ++i) _mm256_storeu_pd(dv + 3 * i, _mm256_loadu_pd(z4 + 4 * static_cast<size_t>(perm[i])));
-  const double* z = z4 + 4 * static_cast<size_t>(perm[n - 1]);
-  std::memcpy(dv + 3 * (n - 1), z, 3 * sizeof(double));
-}
-
 // step_predictor's sparse step for generic springs with the supernodal factor, fused: the spring
 // pass leaves its sums in the padded layout, one pass over the vertices builds the permuted
 // right-hand side h (f − γ v − h K_L v) straight into the solve's z4 (anchored rows zero), the
@@ -672,7 +663,7 @@ void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState
   }
   s.anchor_force = anchor;
   spring::solve_supernodal_permuted(model.predictor, model.supernodes, z4, z4 + 4 * n);
-  gather_dv(n, perm, z4, s.dv.data());
+  spring::unpermute_rows(model.predictor, z4, s.dv.data());
   if (correct) correct_angular_momentum(model, s, ext_torque, s.dv);
   s.v += s.dv;
   for (int a : net.anchors) s.v.row(a).setZero();
@@ -889,12 +880,14 @@ size_t spring_pass_scratch(const SpringModel& model) { return 16 * model.network
 
 namespace {
 
-// The scalar pass (forces.h). x, v, f, r are (n x 3) row-major.
-void spring_pass_scalar(const SpringNetwork& net, double h, const double* xd, const double* vd, double* fd,
-                        double* rd) noexcept {
-  const size_t s = net.springs.size();
-  for (size_t e = 0; e < s; ++e) {
-    const size_t i = 3 * static_cast<size_t>(net.springs[e][0]), j = 3 * static_cast<size_t>(net.springs[e][1]);
+// The scalar pass (forces.h) over the springs from e on, one at a time: vertex i's position at
+// x[stride i …], its velocity at v[stride i …], its sums at f and r the same way. The reference
+// pass on the (n x 3) arrays (stride 3) and the vectorised passes' last s mod 4 springs on the
+// padded layout (stride 8: v = x + 4, r = f + 4).
+void spring_loop(const SpringNetwork& net, double h, size_t e, size_t stride, const double* xd, const double* vd,
+                 double* fd, double* rd) noexcept {
+  for (; e < net.springs.size(); ++e) {
+    const size_t i = stride * static_cast<size_t>(net.springs[e][0]), j = stride * static_cast<size_t>(net.springs[e][1]);
     const double dx = xd[j] - xd[i], dy = xd[j + 1] - xd[i + 1], dz = xd[j + 2] - xd[i + 2];
     const double wx = vd[j] - vd[i], wy = vd[j + 1] - vd[i + 1], wz = vd[j + 2] - vd[i + 2];
     const double kh = h * net.stiffness[e];
@@ -909,6 +902,9 @@ void spring_pass_scalar(const SpringNetwork& net, double h, const double* xd, co
     fd[j] -= g * dx; fd[j + 1] -= g * dy; fd[j + 2] -= g * dz;
   }
 }
+void spring_pass_tail(const SpringNetwork& net, double h, size_t e, const double* xv, double* fr) noexcept {
+  spring_loop(net, h, e, 8, xv, xv + 4, fr, fr + 4);
+}
 
 // (Σ a0, Σ a1, Σ a2, Σ a3): the four horizontal sums in one register.
 __attribute__((target("avx2,fma"), always_inline)) inline __m256d hsum4(__m256d a0, __m256d a1, __m256d a2,
@@ -916,25 +912,6 @@ __attribute__((target("avx2,fma"), always_inline)) inline __m256d hsum4(__m256d 
   const __m256d t0 = _mm256_hadd_pd(a0, a1);  // a0[0]+a0[1], a1[0]+a1[1], a0[2]+a0[3], a1[2]+a1[3]
   const __m256d t1 = _mm256_hadd_pd(a2, a3);
   return _mm256_add_pd(_mm256_permute2f128_pd(t0, t1, 0x20), _mm256_permute2f128_pd(t0, t1, 0x31));
-}
-
-// The springs from e on, one at a time (the vectorised passes' last s mod 4), on the padded layout.
-void spring_pass_tail(const SpringNetwork& net, double h, size_t e, const double* xv, double* fr) noexcept {
-  const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
-  for (; e < net.springs.size(); ++e) {
-    const size_t i = 8 * static_cast<size_t>(net.springs[e][0]), j = 8 * static_cast<size_t>(net.springs[e][1]);
-    const double dx = xv[j] - xv[i], dy = xv[j + 1] - xv[i + 1], dz = xv[j + 2] - xv[i + 2];
-    const double wx = xv[j + 4] - xv[i + 4], wy = xv[j + 5] - xv[i + 5], wz = xv[j + 6] - xv[i + 6];
-    const double kh = h * K[e];
-    fr[i + 4] += kh * wx; fr[i + 5] += kh * wy; fr[i + 6] += kh * wz;
-    fr[j + 4] -= kh * wx; fr[j + 5] -= kh * wy; fr[j + 6] -= kh * wz;
-    const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
-    if (!(l > 0)) continue;
-    const double inv_l = 1.0 / l;
-    const double g = (K[e] * (l - L[e]) + C[e] * (wx * dx + wy * dy + wz * dz) * inv_l) * inv_l;
-    fr[i] += g * dx; fr[i + 1] += g * dy; fr[i + 2] += g * dz;
-    fr[j] -= g * dx; fr[j + 1] -= g * dy; fr[j + 2] -= g * dz;
-  }
 }
 
 // The AVX2 pass, four springs at a time. xv is (8n): a vertex's x, y, z, 0, vx, vy, vz, 0 (one
@@ -1089,7 +1066,7 @@ void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat
                                           SpringKernel kernel) noexcept {
   const size_t n = model.network.size();
   if (!vectorised || kernel == SpringKernel::scalar || !spring_pass_padded_available(model) || scratch == nullptr) {
-    spring_pass_scalar(model.network, model.options.dt, x.data(), v.data(), f.data(), r.data());
+    spring_loop(model.network, model.options.dt, 0, 3, x.data(), v.data(), f.data(), r.data());
     return;
   }
   const double* fr = spring_pass_padded(model, x, v, scratch, kernel) + 8 * n;
