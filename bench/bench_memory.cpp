@@ -3,13 +3,13 @@
 // 10k tick against the machine"). A buffer of the given size is summed again and again with
 // 512-bit loads (256-bit without AVX-512), so it sits in L1/L2 when small and in L3 when larger
 // than L2; bytes_per_second is the read rate. Not palpate code: a reference for its numbers.
+#include <palpate/spring.h>  // CacheLineAllocator
+
 #include <benchmark/benchmark.h>
 
 #include <cstddef>
 #include <cstdint>
-#include <cstring>
-#include <memory>
-#include <new>
+#include <vector>
 
 #include <immintrin.h>
 
@@ -48,16 +48,14 @@ __attribute__((target("avx"))) float sum_avx(const float* a, size_t n) noexcept 
 void BM_MemoryRead(benchmark::State& state) {
   const size_t bytes = static_cast<size_t>(state.range(0)) * 1024;
   const size_t n = bytes / sizeof(float) / 64 * 64;
-  std::unique_ptr<float[], void (*)(float*)> a(
-      static_cast<float*>(::operator new[](n * sizeof(float), std::align_val_t{64})),
-      [](float* p) { ::operator delete[](p, std::align_val_t{64}); });
+  std::vector<float, palpate::CacheLineAllocator<float>> a(n);  // aligned loads need 64-byte lines
   for (size_t i = 0; i < n; ++i) a[i] = static_cast<float>(i & 7);
   const bool avx512 = __builtin_cpu_supports("avx512f");
   if (!avx512 && !__builtin_cpu_supports("avx")) {
     state.SkipWithError("needs AVX");
     return;
   }
-  for (auto _ : state) benchmark::DoNotOptimize(avx512 ? sum_avx512(a.get(), n) : sum_avx(a.get(), n));
+  for (auto _ : state) benchmark::DoNotOptimize(avx512 ? sum_avx512(a.data(), n) : sum_avx(a.data(), n));
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(n * sizeof(float)));
   state.counters["KiB"] = static_cast<double>(state.range(0));
 }
