@@ -21,14 +21,15 @@ struct Pressed {
 
 Pressed press_into(long n) {
   ChargedMaterialDef mat;
-  mat.puncture_force = 100;  // hold the press without puncturing
+  mat.puncture_force = 100;  // a large force at max_displacement
+  mat.max_displacement = 0.01;  // beyond the 5 mm press: no puncture
   PatchDef p;
   p.spacing = 0.001;
   const double side = std::sqrt(double(n) * p.spacing * p.spacing * std::sqrt(3.0) / 2);
   p.width = p.height = side;
   Pressed out{*build_charged_patch(p, mat), {}, {}};
   out.state = make_charged_state(out.model);
-  const double R = mat.sphere_of_influence, depth = 0.005;
+  const double R = mat.particle_radius, depth = 0.005;  // a HIP of radius 0
   for (int t = 0; t <= 500; ++t) {
     out.hip.position = Vec3(0.00025, R - depth * t / 500.0, 0);
     step(out.model, out.state, out.hip, 0.001);

@@ -197,7 +197,8 @@ TEST(ChargedMesh, LiverSurfacePatchIsOnTheSurfaceClosedAndAtMostSixNeighbours) {
   double peak = 0;
   for (int t = 0; t < 1500; ++t) {
     ChargedHip hip;
-    hip.position = m->origin(top) + n * (mat.sphere_of_influence - t * 5e-6);
+    hip.position = m->origin(top) + n * (mat.particle_radius - t * 5e-6);
+    hip.sharp = false;  // a blunt probe: pressed on past max_displacement without puncturing
     peak = std::max(peak, step(*m, s, hip, 0.001).dot(n));
     std::array<int, 6> nb{};
     for (size_t a = 0; a < s.active_count; ++a) {

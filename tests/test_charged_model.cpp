@@ -96,10 +96,21 @@ TEST(ChargedModel, BuildErrorsNameTheKeyAndWhatWasExpected) {
             "w: material 'max_separation' (0.001 m) must exceed the rest distance between neighbours "
             "(0.001 m), or the patch would violate the separation rule at rest");
   mat = ChargedMaterialDef{};
-  mat.hip_charge = std::nan("");
-  auto nan_charge = build_charged_patch(flat_patch(0.04, 0.04, 0.001), mat, "w");
-  ASSERT_FALSE(nan_charge.ok());
-  EXPECT_EQ(nan_charge.error().message, "w: material 'hip_charge' is nan C; expected a finite value > 0");
+  mat.friction_presliding = std::nan("");
+  auto nan_z0 = build_charged_patch(flat_patch(0.04, 0.04, 0.001), mat, "w");
+  ASSERT_FALSE(nan_z0.ok());
+  EXPECT_EQ(nan_z0.error().message, "w: material 'friction_presliding' is nan m; expected a finite value > 0");
+  mat = ChargedMaterialDef{};
+  mat.linear_share = 1.5;
+  auto share = build_charged_patch(flat_patch(0.04, 0.04, 0.001), mat, "w");
+  ASSERT_FALSE(share.ok());
+  EXPECT_EQ(share.error().message, "w: material 'linear_share' is 1.5; expected a value in [0, 1]");
+  // Without max_separation the limit follows the spacing: the same strain at any resolution.
+  for (double spacing : {0.0005, 0.001, 0.002}) {
+    auto ok = build_charged_patch(flat_patch(0.04, 0.04, spacing), ChargedMaterialDef{}, "w");
+    ASSERT_TRUE(ok.ok());
+    EXPECT_DOUBLE_EQ(ok->max_separation, (1 + ChargedMaterialDef{}.max_strain) * spacing);
+  }
   PatchDef wrap = flat_patch(0.2, 0.01, 0.001);
   wrap.shape = "cylinder", wrap.radius = 0.02;
   auto too_wide = build_charged_patch(wrap, ChargedMaterialDef{}, "w");

@@ -75,9 +75,10 @@ std::vector<Vec3> press(const ChargedModel& m, ChargedState& s, const Vec3& at, 
 TEST(ChargedStep, NoForceNoDisplacementOutsideEverySphereOfInfluence) {
   ChargedModel m = flat(0.02);
   ChargedState s = make_charged_state(m);
-  const double R = m.material.sphere_of_influence;
-  // Above, beside and below the patch, each point at least R from every particle.
-  for (const Vec3& p : {Vec3(0, R * 1.0001, 0), Vec3(0.0105 + R, 0, 0), Vec3(0, -R * 1.001, 0.003),
+  const double R = m.material.particle_radius, D = m.material.max_displacement;  // a HIP of radius 0
+  // Above the surface by R or more, beside the patch, and under it deeper than D (a tool that
+  // starts there is under the layer, not pressing it).
+  for (const Vec3& p : {Vec3(0, R * 1.0001, 0), Vec3(0.0105 + R, 0, 0), Vec3(0, -D - R * 1.001, 0.003),
                         Vec3(0.02, 0.02, 0.02), Vec3(-0.004, 0.0041, 0.002)}) {
     for (int t = 0; t < 50; ++t) {
       const Vec3 f = step(m, s, hip_at(p), kDt);
@@ -96,7 +97,7 @@ TEST(ChargedStep, NoForceNoDisplacementOutsideEverySphereOfInfluence) {
 
 TEST(ChargedStep, DisplacementAndSeparationBoundsHoldAfterEveryTick) {
   ChargedMaterialDef mat;
-  mat.puncture_force = 2.5;  // strong enough that the path below also punctures once, late
+  mat.puncture_force = 2.5;
   for (const char* shape : {"flat", "sphere"}) {
     PatchDef p;
     p.shape = shape, p.width = p.height = 0.024, p.radius = 0.03;
@@ -104,17 +105,19 @@ TEST(ChargedStep, DisplacementAndSeparationBoundsHoldAfterEveryTick) {
     ASSERT_TRUE(built.ok());
     const ChargedModel& m = *built;
     ChargedState s = make_charged_state(m);
-    const double D = mat.max_displacement, S = mat.max_separation;
+    const double D = mat.max_displacement, S = m.max_separation;
     double worst_d = 0, worst_s = 0;
     int punctures = 0;
     // Press in, sweep sideways in a circle at depth, press deeper, withdraw: 3000 ticks.
     for (int t = 0; t < 3000; ++t) {
-      const double a = t * 0.004;
-      Vec3 h;
+      // A continuous path (the tool drags the particles along; a jump would land it under them).
+      const double a = std::clamp(t - 1000, 0, 1000) * 0.004;
+      Vec3 h(0.003 * std::sin(a), -0.002, 0.003 * (1 - std::cos(a)));
       if (t < 1000) h = Vec3(0, 0.004 - t * 6e-6, 0);
-      else if (t < 2000) h = Vec3(0.003 * std::sin(a), -0.002, 0.003 * (1 - std::cos(a)));
-      else h = Vec3(0.002, -0.002 - (t - 2000) * 4e-6, -0.001);
-      step(m, s, hip_at(h), kDt);
+      else if (t >= 2000) h.y() = -0.002 - (t - 2000) * 4e-6;
+      ChargedHip blunt = hip_at(h);
+      blunt.sharp = false;  // pressed past max_displacement without puncturing: every bound is met
+      step(m, s, blunt, kDt);
       TissueEvent ev[4];
       for (size_t k = drain_events(s, ev), j = 0; j < k; ++j) punctures += std::strcmp(ev[j].kind, "puncture") == 0;
       worst_d = std::max(worst_d, max_displacement(m, s));
@@ -125,49 +128,49 @@ TEST(ChargedStep, DisplacementAndSeparationBoundsHoldAfterEveryTick) {
     }
     EXPECT_GT(worst_d, 0.99 * D * std::exp(-mat.elasticity * kDt)) << shape << ": the path never reached max_displacement";
     EXPECT_GT(worst_s, 0.99 * S) << shape << ": the separation rule was never exercised";
-    EXPECT_GE(punctures, 1) << shape;
+    EXPECT_EQ(punctures, 0) << shape << ": a blunt tool never punctures";
   }
 }
 
 TEST(ChargedStep, ForceIsContinuousAlongAPathIntoAndAcrossThePatch) {
   ChargedMaterialDef mat;
-  mat.puncture_force = 100;  // no puncture on this path
+  mat.puncture_force = 100;  // a stiff patch; the path stays shallower than max_displacement
   ChargedModel m = flat(0.03, 0.001, mat);
   ChargedState s = make_charged_state(m);
-  const double R = mat.sphere_of_influence;
-  // A plain 1/r² law cut off at R jumps by k q q / R² (0.056 N here) when a particle enters.
-  const double cutoff_jump = m.coulomb_kqq / (R * R);
-  double worst = 0, peak = 0;
-  Vec3 prev = Vec3::Zero();
+  // The force is Φ(δ) along the normal, δ a 1-Lipschitz function of the HIP: no step may change
+  // it by more than the law's steepest slope on the path times the step's length.
+  const double max_slope = (charged_contact_force(mat, 0.0035) - charged_contact_force(mat, 0.0035 - 1e-7)) / 1e-7;
+  double worst = 0, peak = 0, longest = 0;
+  Vec3 prev = Vec3::Zero(), prev_h = Vec3::Zero();
   const Vec3 a(-0.008, 0.006, 0.001), b(-0.004, -0.002, 0.001), c(0.008, -0.002, -0.002);
   const int n = 4000;
   for (int t = 0; t <= 2 * n; ++t) {
     const Vec3 h = t <= n ? a + (b - a) * (double(t) / n) : b + (c - b) * (double(t - n) / n);
     const Vec3 f = step(m, s, hip_at(h), kDt);
-    if (t > 0) worst = std::max(worst, (f - prev).norm());
+    if (t > 0) worst = std::max(worst, (f - prev).norm()), longest = std::max(longest, (h - prev_h).norm());
     peak = std::max(peak, f.norm());
-    prev = f;
+    prev = f, prev_h = h;
   }
-  EXPECT_GT(peak, 5 * cutoff_jump) << "the path must press into the patch";
-  EXPECT_LT(worst, 0.1 * cutoff_jump) << "largest change of force in one 2-3 µm step";
+  EXPECT_GT(peak, 10.0) << "the path must press into the patch";
+  EXPECT_LT(worst, 1.001 * max_slope * longest) << "largest change of force in one 2-3 µm step";
 }
 
+// Before puncture the force may never fall while the needle presses on (grit), at any spacing;
+// the test allows no tolerance at all.
 TEST(ChargedStep, ForceGrowsMonotonicallyWithIndentationUntilPuncture) {
-  ChargedModel m = flat(0.03);
-  ChargedState s = make_charged_state(m);
-  const Vec3 at = m.origin(size_t(central_particle(m)));
-  std::vector<TissueEvent> events;
-  std::vector<double> fy;
-  for (const Vec3& f : press(m, s, at, 0.005, -0.006, 2e-6, &events)) fy.push_back(f.y());
-  ASSERT_FALSE(events.empty());
-  const size_t puncture_tick = size_t(std::lround(events[0].time / kDt)) - 1;
-  ASSERT_LT(puncture_tick, fy.size());
-  double prev = 0;
-  for (size_t t = 0; t <= puncture_tick; ++t) {
-    EXPECT_GE(fy[t], prev * (1 - 0.01) - 1e-9) << "tick " << t;  // within 1%: queue-order jitter
-    prev = std::max(prev, fy[t]);
+  for (double spacing : {0.0005, 0.001, 0.002}) {
+    ChargedModel m = flat(0.03, spacing);
+    ChargedState s = make_charged_state(m);
+    const Vec3 at = m.origin(size_t(central_particle(m))) + Vec3(0.00013, 0, 0.00029);
+    std::vector<TissueEvent> events;
+    std::vector<double> fy;
+    for (const Vec3& f : press(m, s, at, 0.005, -0.006, 2e-6, &events)) fy.push_back(f.y());
+    ASSERT_FALSE(events.empty());
+    const size_t puncture_tick = size_t(std::lround(events[0].time / kDt)) - 1;
+    ASSERT_LT(puncture_tick, fy.size());
+    for (size_t t = 1; t <= puncture_tick; ++t) ASSERT_GE(fy[t], fy[t - 1]) << "spacing " << spacing << " tick " << t;
+    EXPECT_NEAR(fy[puncture_tick], m.material.puncture_force, 0.01 * m.material.puncture_force);
   }
-  EXPECT_GE(fy[puncture_tick], m.material.puncture_force);
 }
 
 TEST(ChargedStep, CentredProbeOnSymmetricPatchFeelsNoLateralForce) {
@@ -183,16 +186,16 @@ TEST(ChargedStep, CentredProbeOnSymmetricPatchFeelsNoLateralForce) {
     if (f.y() > 0.05) worst_ratio = std::max(worst_ratio, std::hypot(f.x(), f.z()) / f.y());
   }
   EXPECT_GT(max_fy, 0.5);
-  // The lattice is six-fold symmetric about the probed particle; the separation rule's sequential
-  // queue order breaks that only at the percent level.
-  EXPECT_LT(worst_ratio, 0.03);
+  // The force is along the surface's normal: a probe pressed straight in is not pushed aside,
+  // whatever order the separation rule met the particles in.
+  EXPECT_EQ(worst_ratio, 0.0);
 }
 
 TEST(ChargedStep, ReleasedParticlesReturnToOriginsAtTheElasticityRate) {
   ChargedModel m = flat(0.02);
   ChargedState s = make_charged_state(m);
   const Vec3 at = m.origin(size_t(central_particle(m)));
-  press(m, s, at, 0.004, -0.0005, 1e-5);  // 4.5 mm dimple, no puncture
+  press(m, s, at, 0.004, -0.003, 1e-5);  // 4.1 mm dimple (D = 5 mm), no puncture
   ASSERT_TRUE(drain_events(s, std::span<TissueEvent>()) == 0 && s.event_count == 0);
   step(m, s, hip_at(Vec3(0, 0.05, 0)), kDt);  // the HIP leaves
   const double d0 = max_displacement(m, s);
@@ -218,7 +221,7 @@ TEST(ChargedStep, ZeroElasticityStaysWherePushed) {
   mat.elasticity = 0;
   ChargedModel m = flat(0.02, 0.001, mat);
   ChargedState s = make_charged_state(m);
-  press(m, s, m.origin(size_t(central_particle(m))), 0.004, -0.0005, 1e-5);
+  press(m, s, m.origin(size_t(central_particle(m))), 0.004, -0.0035, 1e-5);
   step(m, s, hip_at(Vec3(0, 0.05, 0)), kDt);
   const ChargedState before = s;
   for (int k = 0; k < 500; ++k) step(m, s, hip_at(Vec3(0, 0.05, 0)), kDt);
@@ -242,23 +245,72 @@ TEST(ChargedStep, PunctureHappensAtTheThresholdAndNotBefore) {
     EXPECT_EQ(events[0].tissue, 0);
     const size_t tick = size_t(std::lround(events[0].time / kDt)) - 1;
     for (size_t t = 0; t < tick; ++t) ASSERT_LT(fy[t], threshold) << "tick " << t;
-    EXPECT_GE(fy[tick], threshold);
-    EXPECT_LT(fy[tick], threshold * 1.05);  // slow press: the peak is the threshold, give or take a step
+    EXPECT_GE(fy[tick], threshold * 0.995);
+    EXPECT_LT(fy[tick], threshold * 1.01);  // slow press: the peak is the threshold, give or take a step
     EXPECT_DOUBLE_EQ(events[0].force, fy[tick]);
-    EXPECT_GT(events[0].depth, 0.0);
-    // The drop and snap: right after the puncture the patch no longer pushes back; the reversed
-    // charges pull the tool on into the tissue.
-    EXPECT_GT(f[tick].y(), 0.0);
-    EXPECT_LT(f[tick + 1].y(), 0.0);
+    // The HIP is D − R below the rest surface (an indentation of D).
+    EXPECT_NEAR(events[0].depth, mat.max_displacement - mat.particle_radius, 3e-6);
+    // The give: the layer lets go over puncture_time, never faster than a smoothstep of it, and is
+    // gone after it; the reversed charges then pull the tool on just past the hole (the snap).
+    const size_t give_ticks = size_t(std::lround(mat.puncture_time / kDt));
+    double steepest = 0;
+    for (size_t t = tick + 1; t <= tick + give_ticks; ++t) steepest = std::max(steepest, fy[t - 1] - fy[t]);
+    EXPECT_LE(steepest, 1.5 * threshold * kDt / mat.puncture_time * 1.01);
+    EXPECT_LT(fy[tick + give_ticks + 1], 0.1 * threshold);
+    ASSERT_GT(f.size(), tick + give_ticks + 400);
+    double snap = 0;
+    for (size_t t = tick + give_ticks + 1; t < tick + give_ticks + 400; ++t) snap = std::min(snap, f[t].y());
+    EXPECT_LT(snap, -0.5 * mat.snap_share * threshold);
   }
 }
 
+// The laws are C¹ everywhere they act: value and slope continuous at every joint, checked with
+// one-sided differences; the contact law is monotone and reaches the puncture force at D.
+TEST(ChargedStep, ForceLawsAreC1AndTheContactLawIsMonotone) {
+  ChargedMaterialDef mat;
+  mat.max_displacement = 0.006, mat.puncture_force = 2.0, mat.linear_share = 0.3;
+  const double D = mat.max_displacement, R = 0.0015, h = 1e-9;
+  auto phi = [&](double x) { return charged_contact_force(mat, x); };
+  auto snap = [&](double x) { return charged_snap_force(mat, x, R); };
+  auto track = [&](double x) { return charged_track_force(mat, x, R); };
+  auto check_c1 = [&](auto f, double x, double scale, const char* name) {
+    const double left = (f(x) - f(x - h)) / h, right = (f(x + h) - f(x)) / h;
+    const double slope = std::max(std::abs(left), std::abs(right));
+    EXPECT_LE(std::abs(f(x + h) - f(x - h)), 2 * h * slope * 1.01 + 1e-15) << name << " value at " << x;
+    EXPECT_NEAR(left, right, 1e-3 * slope + 1e-5 * scale / R) << name << " slope at " << x;
+  };
+  for (double x : {0.0, 0.1 * D, D, 0.5 * D}) check_c1(phi, x, mat.puncture_force, "contact");
+  for (double x : {0.0, 0.5 * R, R}) check_c1(snap, x, mat.puncture_force, "snap");
+  for (double x : {0.0, R}) check_c1(track, x, mat.puncture_force, "track");
+  EXPECT_DOUBLE_EQ(phi(D), mat.puncture_force);
+  EXPECT_EQ(phi(0), 0.0);
+  EXPECT_EQ(phi(-0.001), 0.0);
+  for (double x = 1e-6; x < 1.5 * D; x += 1e-6) ASSERT_GT(phi(x), phi(x - 1e-6)) << x;
+  // The linear term's share at puncture is what the material says.
+  mat.linear_share = 1.0;
+  EXPECT_NEAR(phi(0.5 * D), 0.5 * mat.puncture_force * (0.5 * D - 0.05 * D) / (0.5 * D) / 0.95 * 0.5 / 0.5 * (0.45 / 0.475) / (0.45 / 0.475), 0.03);
+  mat.linear_share = 0.3;
+  // The snap: ≥ 0, at most snap_share × F_p, zero outside (0, R); the track force odd and bounded.
+  for (double x = -R; x < 2 * R; x += R / 1000) {
+    ASSERT_GE(snap(x), 0.0);
+    ASSERT_LE(snap(x), mat.snap_share * mat.puncture_force * (1 + 1e-12));
+  }
+  EXPECT_DOUBLE_EQ(snap(0.5 * R), mat.snap_share * mat.puncture_force);
+  EXPECT_EQ(snap(R), 0.0);
+  EXPECT_DOUBLE_EQ(track(-0.0004), -track(0.0004));
+  EXPECT_LT(track(1.0), mat.puncture_force * (1 + 1e-12));
+  EXPECT_NEAR((track(1e-9) - track(0)) / 1e-9, mat.puncture_force / R, 1e-3 * mat.puncture_force / R);
+}
+
 TEST(ChargedStep, AfterPunctureTheToolIsPulledTowardTheTrackAndFrictionResistsBothWays) {
-  ChargedModel m = flat(0.03);
+  ChargedMaterialDef mat;
+  mat.thickness = 0.01;  // a thick layer: the shaft inside it grows over the whole insertion below
+  ChargedModel m = flat(0.03, 0.001, mat);
   ChargedState s = make_charged_state(m);
   const Vec3 at = m.origin(size_t(central_particle(m)));
   ChargedHip needle;
   needle.shaft_length = 0.05;
+  needle.velocity = Vec3(0, -0.002, 0);
   std::vector<TissueEvent> events;
   double y = 0.005;
   for (; y > -0.006 && events.empty(); y -= 2e-6) {
@@ -268,27 +320,83 @@ TEST(ChargedStep, AfterPunctureTheToolIsPulledTowardTheTrackAndFrictionResistsBo
     events.insert(events.end(), ev, ev + drain_events(s, ev));
   }
   ASSERT_EQ(events.size(), 1u);
-  // The snap: the next tick the reversed charges below pull the tip on, into the tissue.
-  needle.position.y() -= 2e-6;
-  const Vec3 snap = step(m, s, needle, kDt);
-  EXPECT_LT(snap.y(), 0.0);
-  // The tip goes through and on; the shaft stays in the hole and the particles settle back.
-  for (int k = 0; k < 400; ++k) needle.position.y() -= 2e-5, step(m, s, needle, kDt);
-  EXPECT_LT(needle.position.y(), -0.008);
-  // Pushed sideways, the shaft is pulled back toward the track, either side.
+  // The tip goes on through, past the snap's reach (R); the shaft stays in the hole.
+  for (int k = 0; k < 1000; ++k) needle.position.y() -= 2e-6, step(m, s, needle, kDt);
+  // Pushed sideways, the shaft is pulled back toward the track, either side, with the track's
+  // law F_p·tanh(offset/R), and nothing else sideways.
+  const double R = mat.particle_radius;
   for (double side : {+1.0, -1.0}) {
     ChargedState moved = s;
-    needle.position.x() = at.x() + side * 0.0005;
-    const Vec3 f = step(m, moved, needle, kDt);
-    EXPECT_LT(f.x() * side, -1e-4) << "side " << side;
+    ChargedHip off = needle;
+    off.position.x() = at.x() + side * 0.0005;
+    const Vec3 f = step(m, moved, off, kDt);
+    EXPECT_NEAR(f.x() * side, -mat.puncture_force * std::tanh(0.0005 / R), 1e-9) << "side " << side;
   }
-  needle.position.x() = at.x();
-  // Moving along the track: friction opposes the motion, in both directions.
+  // Moving along the track at steady speed: Dahl friction saturates at friction_per_length times
+  // the shaft inside the layer, against the motion, in both directions.
   for (double v : {-0.01, 0.01}) {
     ChargedState moving = s;
+    ChargedHip n2 = needle;
+    n2.velocity = Vec3(0, v, 0);
+    Vec3 f;
+    for (int k = 0; k < 300; ++k) f = step(m, moving, n2, kDt);  // 3 mm of travel: ten presliding lengths
+    const double inside = moving.stats.shaft_in_layer;
+    EXPECT_NEAR(inside, at.y() - needle.position.y(), 1e-9);
+    // Saturated to within 2e^(−10) of the kinetic value after ten presliding lengths.
+    EXPECT_NEAR(f.y(), -std::copysign(mat.friction_per_length * inside, v), 1e-4 * mat.friction_per_length * inside) << v;
+  }
+}
+
+// Friction along the shaft grows with the length inside each layer (Okamura 2004), reverses
+// smoothly with direction over the presliding length, and is a function of travel, not of time.
+TEST(ChargedStep, ShaftFrictionGrowsWithTheLengthInsideAndReversesSmoothly) {
+  ChargedMaterialDef mat;
+  mat.thickness = 0.008, mat.friction_per_length = 80, mat.max_displacement = 0.003;
+  for (double dt : {0.0005, 0.001, 0.002}) {
+    ChargedModel m = flat(0.03, 0.001, mat);
+    ChargedState s = make_charged_state(m);
+    ChargedHip needle;
+    needle.shaft_length = 0.06;
+    const double v = 0.01;
+    needle.velocity = Vec3(0, -v, 0);
+    std::vector<double> inside, fy;
+    bool punctured = false;
+    double t_puncture = 0;
+    const int ticks = int(std::lround(1.6 / dt));
+    for (int k = 0; k < ticks; ++k) {
+      const double t = k * dt;
+      needle.position = Vec3(0.0002, 0.004 - v * t, 0.0001);
+      const Vec3 f = step(m, s, needle, dt);
+      TissueEvent ev[4];
+      if (!punctured && drain_events(s, ev) > 0) punctured = true, t_puncture = t;
+      // After the give and once the bristle has saturated (10 presliding lengths of travel).
+      if (punctured && t > t_puncture + mat.puncture_time + 10 * mat.friction_presliding / v)
+        inside.push_back(s.stats.shaft_in_layer), fy.push_back(f.y());
+    }
+    ASSERT_TRUE(punctured);
+    ASSERT_GT(inside.size(), 100u);
+    for (size_t k = 0; k < inside.size(); ++k)
+      ASSERT_NEAR(fy[k], mat.friction_per_length * inside[k], 1e-4 * mat.friction_per_length * inside[k] + 1e-9)
+          << "dt " << dt << " k " << k;
+    EXPECT_NEAR(inside.back(), mat.thickness, 1e-9);
+    EXPECT_LT(inside.front(), inside.back() - 0.002);  // it grew over the window
+    // Reversal: pulled back out at the same speed, the friction goes from +F to −F smoothly over
+    // a few presliding lengths of travel (the same travel at every dt), never jumping.
+    const double F = fy.back();
     needle.velocity = Vec3(0, v, 0);
-    const Vec3 f = step(m, moving, needle, kDt);
-    EXPECT_NEAR(f.y(), -std::copysign(m.material.track_friction * std::tanh(0.01 / 0.001), v), 0.02) << v;
+    double prev = F, worst = 0, travel_to_zero = -1;
+    const double y0 = needle.position.y();
+    for (int k = 0; k < int(std::lround(0.003 / (v * dt))); ++k) {
+      needle.position.y() += v * dt;
+      const double f = step(m, s, needle, dt).y();
+      worst = std::max(worst, std::abs(f - prev));
+      if (travel_to_zero < 0 && f <= 0) travel_to_zero = needle.position.y() - y0;
+      prev = f;
+    }
+    EXPECT_NEAR(prev, -F, 0.01 * F) << dt;
+    // z: +z0 → −z0 as z0(2e^(−x/z0) − 1): zero at x = z0·ln 2.
+    EXPECT_NEAR(travel_to_zero, mat.friction_presliding * std::log(2.0), v * dt + 1e-9) << dt;
+    EXPECT_LT(worst, 2 * F * v * dt / mat.friction_presliding * 1.01) << dt;
   }
 }
 
@@ -299,6 +407,7 @@ TEST(ChargedStep, StackedLayersPunctureInOrderEachWithItsOwnPeak) {
   for (int k = 0; k < 3; ++k) {
     ChargedMaterialDef mat;
     mat.puncture_force = thresholds[k];
+    mat.friction_per_length = 0;  // the peaks and drops alone
     layers.push_back(flat(0.03, 0.001, mat, -0.008 * k));
   }
   std::vector<ChargedState> states;
@@ -326,11 +435,11 @@ TEST(ChargedStep, StackedLayersPunctureInOrderEachWithItsOwnPeak) {
     if (k > 0) {
       EXPECT_GT(punctures[size_t(k)].time, punctures[size_t(k - 1)].time);
     }
-    EXPECT_GE(punctures[size_t(k)].force, thresholds[k]);
-    EXPECT_LT(punctures[size_t(k)].force, thresholds[k] * 1.05);
-    // Each peak is followed by a drop.
+    EXPECT_GE(punctures[size_t(k)].force, thresholds[k] * 0.995);
+    EXPECT_LT(punctures[size_t(k)].force, thresholds[k] * 1.01);
+    // Each peak is followed by a drop once the layer has given way.
     const size_t tick = size_t(std::lround(punctures[size_t(k)].time / kDt)) - 1;
-    EXPECT_LT(fy[tick + 1], fy[tick] - 0.5 * thresholds[k]) << "layer " << k;
+    EXPECT_LT(fy[tick + 30], fy[tick] - 0.5 * thresholds[k]) << "layer " << k;
   }
 }
 
@@ -398,16 +507,16 @@ TEST(ChargedStep, ChainMailCostFollowsTheDisturbanceNotThePatch) {
 }
 
 TEST(ChargedStep, ScalingLengthsAndChargesTogetherLeavesForcesUnchanged) {
-  // F = k q² (1/r² − 1/R²): lengths × s with charges × s keeps every force; nothing in the model
-  // may depend on an absolute length.
+  // Φ depends on δ/D only: lengths × s (friction per length ÷ s) keeps every force; nothing in
+  // the model may depend on an absolute length.
   ChargedMaterialDef base;
   base.puncture_force = 100;
   std::vector<std::vector<double>> forces;
   // Powers of two scale every float and double exactly, so the forces must be bit-identical.
   for (double scale : {1.0 / 64, 1.0, 64.0}) {
     ChargedMaterialDef mat = base;
-    mat.max_displacement *= scale, mat.sphere_of_influence *= scale, mat.max_separation *= scale;
-    mat.particle_charge *= scale, mat.hip_charge *= scale, mat.friction_velocity *= scale;
+    mat.max_displacement *= scale, mat.particle_radius *= scale, mat.thickness *= scale;
+    mat.friction_per_length /= scale, mat.friction_presliding *= scale;
     ChargedModel m = flat(0.02 * scale, 0.001 * scale, mat);
     ChargedState s = make_charged_state(m);
     const Vec3 at = m.origin(size_t(central_particle(m)));
@@ -438,18 +547,6 @@ TEST(ChargedStep, NonFiniteInputIsRecoveredWithZeroForceAndAReset) {
   EXPECT_EQ(ev[0].tissue, 3);
 }
 
-TEST(ChargedStep, RepulsionAndAttractionLawsAreContinuous) {
-  const double kqq = 1e-6, R = 0.004;
-  EXPECT_EQ(charged_repulsion(kqq, R, R), 0.0);
-  EXPECT_NEAR(charged_repulsion(kqq, R * (1 - 1e-9), R), 0.0, 1e-9);
-  EXPECT_NEAR(charged_repulsion(kqq, R / 2, R), kqq * 3 / (R * R), 1e-12);
-  EXPECT_EQ(charged_repulsion(kqq, 0.01 * R, R), charged_repulsion(kqq, 0.1 * R, R));  // saturates
-  for (double r = 0.11 * R; r < R; r += 0.01 * R) EXPECT_GT(charged_repulsion(kqq, r - 0.005 * R, R), charged_repulsion(kqq, r, R));
-  EXPECT_EQ(charged_attraction(kqq, 0, R), 0.0);
-  EXPECT_NEAR(charged_attraction(kqq, 0.5 * R * (1 - 1e-9), R), charged_attraction(kqq, 0.5 * R, R), 1e-6);
-  EXPECT_NEAR(charged_attraction(kqq, 0.25 * R, R), 0.5 * charged_attraction(kqq, 0.5 * R, R), 1e-9);
-}
-
 TEST(ChargedStep, AHoleStaysOpenOrClosesAsTheMaterialSays) {
   for (bool closes : {false, true}) {
     ChargedMaterialDef mat;
@@ -478,7 +575,7 @@ TEST(ChargedStep, AHoleStaysOpenOrClosesAsTheMaterialSays) {
     const long punctures = std::count(kinds.begin(), kinds.end(), std::string("puncture"));
     if (closes) {
       EXPECT_EQ(punctures, 2) << "a closed hole must be punctured again";
-      EXPECT_GE(second_peak, mat.puncture_force);
+      EXPECT_GE(second_peak, mat.puncture_force * (1 - 1e-9));
     } else {
       EXPECT_EQ(punctures, 1) << "an open hole lets the needle through";
       EXPECT_LT(second_peak, 0.2 * mat.puncture_force);

@@ -62,7 +62,7 @@ TEST(ChargedTissue, PatchSceneStepsReportsFiguresEventsSnapshotAndResets) {
   ASSERT_EQ(events.size(), 1u);
   EXPECT_STREQ(events[0].kind, "puncture");
   EXPECT_EQ(events[0].tissue, 0);
-  EXPECT_GE(events[0].force, 1.0);
+  EXPECT_NEAR(events[0].force, 1.0, 1e-9);  // the material's puncture force, at any spacing
   EXPECT_GE(peak, 0.99);
   t.step(tool, 0.001);
   t.figures(figures);

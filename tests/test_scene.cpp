@@ -82,10 +82,10 @@ tissues:
     material:
       max_displacement: 0.005
       elasticity: 12.5
-      sphere_of_influence: 0.002
+      particle_radius: 0.002
       max_separation: 0.0012
-      particle_charge: 2.0e-7
-      hip_charge: 3.0e-7
+      linear_share: 0.4
+      friction_per_length: 70
       puncture_force: 1.8
       hole_closes: true
     anchors: [0, 5, 17]
@@ -153,10 +153,10 @@ tissues:
   EXPECT_EQ(skin.patch->normal, Vec3(0, 0, 1));
   EXPECT_EQ(skin.charged.max_displacement, 0.005);
   EXPECT_EQ(skin.charged.elasticity, 12.5);
-  EXPECT_EQ(skin.charged.sphere_of_influence, 0.002);
+  EXPECT_EQ(skin.charged.particle_radius, 0.002);
   EXPECT_EQ(skin.charged.max_separation, 0.0012);
-  EXPECT_EQ(skin.charged.particle_charge, 2.0e-7);
-  EXPECT_EQ(skin.charged.hip_charge, 3.0e-7);
+  EXPECT_EQ(skin.charged.linear_share, 0.4);
+  EXPECT_EQ(skin.charged.friction_per_length, 70.0);
   EXPECT_EQ(skin.charged.puncture_force, 1.8);
   EXPECT_TRUE(skin.charged.hole_closes);
   EXPECT_EQ(skin.anchors, (std::vector<int>{0, 5, 17}));
@@ -267,9 +267,14 @@ TEST(Scene, EveryTableDefaultLiesInItsRange) {
 TEST(SceneErrors, UnknownKeySuggestsTheClosestAndListsValidKeys) {
   EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {}\n    material:\n      max_displacment: 0.01\n"),
             "s.yaml:5: tissues[0].material.max_displacment: unknown key (did you mean 'max_displacement'?); "
-            "valid charged_particles material keys: max_displacement, elasticity, sphere_of_influence, "
-            "max_separation, particle_charge, hip_charge, puncture_force, hole_closes, track_friction, "
-            "friction_velocity, mesh_spacing");
+            "valid charged_particles material keys: max_displacement, elasticity, particle_radius, "
+            "max_strain, max_separation, puncture_force, linear_share, snap_share, puncture_time, hole_closes, "
+            "thickness, friction_per_length, friction_presliding, mesh_spacing");
+  // A key of the model before its force became a law of the indentation says what replaced it.
+  const std::string old = error_of("tissues:\n  - name: a\n    patch: {}\n    material:\n      sphere_of_influence: 0.002\n");
+  EXPECT_EQ(old.substr(0, old.find("; valid")),
+            "s.yaml:5: tissues[0].material.sphere_of_influence: unknown key; 'sphere_of_influence' is now the "
+            "tool's radius plus 'particle_radius'");
   // Far from every key: no suggestion; section keys are listed with the table's.
   EXPECT_EQ(error_of(std::string("colour: red\n") + kOneTissue),
             "s.yaml:1: colour: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, "
@@ -429,11 +434,10 @@ TEST(SceneErrors, CrossFieldChecks) {
             "s.yaml:3: tool.length: a needle needs a length > 0 m, got 0 m");
   EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {spacing: 0.002}\n    material:\n"
                      "      max_separation: 0.002\n"),
-            "s.yaml:5: tissues[0].material.max_separation: 0.002 m must exceed the patch spacing 0.002 m");
-  // The default max_separation (1.6 mm) against a coarser patch, with no material section.
-  EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {spacing: 0.002}\n"),
-            "s.yaml:2: tissues[0].material.max_separation: the default 0.0016 m must exceed the patch spacing "
-            "0.002 m; set it");
+            "s.yaml:5: tissues[0].material.max_separation: 0.002 m must exceed the patch spacing 0.002 m "
+            "(or leave it 0 and set max_strain)");
+  // By default the separation limit follows the spacing (max_strain): any spacing is valid.
+  EXPECT_TRUE(parse_scene("tissues:\n  - name: a\n    patch: {spacing: 0.002}\n", "s.yaml", kTestData).ok());
   // A mass-spring patch has no separation rule.
   EXPECT_TRUE(parse_scene("tissues:\n  - {name: a, model: mass_spring, patch: {spacing: 0.002}}\n", "s.yaml").ok());
   EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch:\n      spacing: 0.01\n      width: 0.005\n"),

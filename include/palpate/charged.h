@@ -28,7 +28,7 @@ enum class ChargedLayout : std::uint8_t {
 struct ChargedModel {
   ChargedMaterialDef material;
   ChargedLayout layout = ChargedLayout::flat;
-  double coulomb_kqq = 0;  // N·m², k_e · q_hip · q_particle (k_e = 8.9875517923e9 N·m²/C²)
+  double max_separation = 0;  // m, S: the separation rule's limit (material's, or from max_strain)
 
   // Generated lattices (layout != mesh): particle index = r * cols + c, rows along v, columns
   // along u; odd rows are shifted by spacing/2 along u (hexagonal tessellation).
@@ -68,10 +68,13 @@ struct ChargedModel {
 
 // A punctured hole: where the tool went through, and whether it is in the hole now.
 struct ChargedHole {
-  Vec3 center = Vec3::Zero();  // m, HIP position at the puncture
-  Vec3 axis = Vec3::Zero();    // unit, the tool's axis at the puncture (the track's direction)
-  bool in_track = false;       // the tool passes through the hole now
-  bool open = false;           // slot in use
+  Vec3 center = Vec3::Zero();   // m, HIP position at the puncture
+  Vec3 axis = Vec3::Zero();     // unit, the tool's axis at the puncture (the track's direction)
+  Vec3 surface = Vec3::Zero();  // m, the rest surface's point under the HIP at the puncture
+  Vec3 normal = Vec3::Zero();   // unit, the rest surface's outward normal there
+  double bristle = 0;           // m, Dahl friction state in [−z0, z0] (z0 = friction_presliding)
+  bool in_track = false;        // the tool passes through the hole now
+  bool open = false;            // slot in use
 };
 
 // What the last step did (for figures, tests and the ChainMail cost check).
@@ -83,6 +86,8 @@ struct ChargedStepStats {
   int propagation_overflows = 0; // ticks where the propagation hit its safety bound (never, normally)
   long candidates = 0;           // particles examined by the lattice/grid search this tick
   double max_displacement = 0;   // m, largest |position - origin| among active particles
+  double indentation = 0;        // m, δ: how far the sphere of influence reaches past the rest surface
+  double shaft_in_layer = 0;     // m, length of shaft inside the layer's punctured tracks
   long numeric_resets = 0;       // numerical troubles recovered since build (zero force + reset)
 };
 
@@ -101,6 +106,9 @@ struct ChargedState {
   Vec3 force = Vec3::Zero();          // N, force of the tissue on the HIP (what the device gets)
   double time = 0;                    // s
   double contact_peak = 0;            // N, largest |force| since the HIP last came into contact
+  Vec3 give = Vec3::Zero();           // N, the contact force at the last puncture, falling away
+  double give_age = 0;                // s since that puncture (≥ puncture_time: given way)
+  bool engaged = false;               // the tool presses the surface from outside (contact held)
   ChargedStepStats stats;
   std::array<TissueEvent, kChargedEventCapacity> events{};  // ring of undrained events
   size_t event_head = 0, event_count = 0;
@@ -117,6 +125,8 @@ struct ChargedHip {
   Vec3 axis = Vec3(0, -1, 0);    // unit, handle → tip
   Vec3 velocity = Vec3::Zero();  // m/s
   double shaft_length = 0;       // m
+  double radius = 0;             // m, the tool's radius (sphere of influence = this + particle radius)
+  bool sharp = true;             // a needle punctures at max_displacement; a blunt probe never does
 };
 
 // A generated rectangular hexagonal patch (flat, or bent onto a cylinder or sphere).
@@ -149,11 +159,19 @@ size_t drain_events(ChargedState& state, std::span<TissueEvent> out) noexcept;
 // cold drawing triangles and the mesh's cell table are excluded and reported separately).
 size_t charged_bytes_per_particle(const ChargedModel& model);
 
-// Repulsion magnitude between the HIP and one particle at distance r (force-shifted Coulomb law):
-// k q_h q_p (1/max(r, r_floor)² − 1/R²) for r < R, else 0; R = sphere of influence, r_floor = R/10.
-double charged_repulsion(double kqq, double r, double sphere_of_influence) noexcept;
-// Attraction of a charge-reversed (punctured) particle: the same law outside R/2, and inside it
-// falls linearly to zero at r = 0, so it is continuous and centres the tool in the hole.
-double charged_attraction(double kqq, double r, double sphere_of_influence) noexcept;
+// The contact force law (N) at indentation δ (m), the depth the sphere of influence reaches past
+// the rest surface: Okamura, Simone & O'Leary 2004's nonlinear spring a1·x + a2·x², its linear
+// term started smoothly over the first 10 % of max_displacement so the law is C¹ at first contact:
+//   Φ(δ) = a1·ψ(δ) + a2·δ²,  ψ = δ²/(2e) for δ < e, δ − e/2 beyond; e = D/10,
+//   a1 = β·F_p/(D − e/2), a2 = (1 − β)·F_p/D²  (β = linear_share, F_p = puncture_force),
+// so Φ(D) = F_p exactly; 0 for δ ≤ 0. Monotone, C¹ everywhere.
+double charged_contact_force(const ChargedMaterialDef& mat, double indentation) noexcept;
+// The pull of a hole's reversed charges on a tool whose tip is z (m) past the puncture point along
+// the track, toward the inside (N, ≥ 0): snap_share·F_p·16 s²(1 − s)², s = z/R, 0 outside (0, R).
+// C¹; it is the snap going in and, at most snap_share·F_p, the catch on the way out.
+double charged_snap_force(const ChargedMaterialDef& mat, double z, double sphere_of_influence) noexcept;
+// The track's centring force magnitude (N) for a shaft `offset` (m) off the track's line:
+// F_p·tanh(offset/R) — stiffness F_p/R at the line, saturating at the puncture force. C¹, odd.
+double charged_track_force(const ChargedMaterialDef& mat, double offset, double sphere_of_influence) noexcept;
 
 }  // namespace palpate

@@ -6,17 +6,23 @@
 namespace palpate {
 
 // Material of one charged-particle patch (DESIGN.md §1, docs/models/charged-particles.md). SI units.
+// Every key means the same thing at any particle spacing and any tick: the contact force is a
+// function of the indentation (not of how many particles sample it, nor of dt).
 struct ChargedMaterialDef {
-  double max_displacement = 0.005;     // m, farthest a particle may move from its origin (rigidity)
+  double max_displacement = 0.005;     // m, farthest a particle may move from its origin (rigidity);
+                                       //   the indentation at which a sharp tool punctures the layer
   double elasticity = 20.0;            // 1/s, return rate to origin once released; 0 = stays
-  double sphere_of_influence = 0.004;  // m, HIP radius + particle radius: interaction range
-  double max_separation = 0.0016;      // m, largest distance allowed between neighbours
-  double particle_charge = 1.0e-8;     // C
-  double hip_charge = 1.0e-8;          // C, same sign as the particles: they repel
-  double puncture_force = 1.5;         // N, force at maximum displacement that punctures
+  double particle_radius = 0.0011;     // m, sphere of influence = tool radius + this
+  double max_strain = 0.5;             // neighbours may be (1 + this) × their rest distance apart
+  double max_separation = 0.0;         // m, absolute neighbour distance limit; 0 = from max_strain
+  double puncture_force = 1.5;         // N, contact force at max_displacement: a needle punctures
+  double linear_share = 0.3;           // share of the linear term at puncture (Okamura a1·x + a2·x²)
+  double snap_share = 0.08;            // peak snap / exit catch of the reversed charges, × puncture_force
+  double puncture_time = 0.025;        // s, the layer gives way over this time after a puncture
   bool hole_closes = false;            // whether a puncture hole closes once the tool leaves
-  double track_friction = 0.3;         // N, kinetic friction of a punctured layer on the tool
-  double friction_velocity = 0.001;    // m/s, axial speed at which friction reaches ~76% (tanh)
+  double thickness = 0.003;            // m, the layer's depth below its surface (shaft length in it)
+  double friction_per_length = 100.0;  // N/m, kinetic friction per metre of shaft inside the layer
+  double friction_presliding = 0.0003; // m, shaft travel over which friction builds (Dahl model)
   double mesh_spacing = 0.001;         // m, particle spacing when the patch is laid on a mesh
 };
 

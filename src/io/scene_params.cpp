@@ -91,7 +91,7 @@ std::span<const Param<PatchDef>> param_table(const PatchDef*) {
       {"width", &D::width, 1e-4, 1.0, "m", "extent along the patch's u direction, >= spacing"},
       {"height", &D::height, 1e-4, 1.0, "m", "extent along its v direction, >= spacing"},
       {"spacing", &D::spacing, 1e-5, 0.1, "m",
-       "distance between neighbouring particles; a charged patch's max_separation must exceed it"},
+       "distance between neighbouring particles (a charged patch's material means the same at any spacing)"},
       {"radius", &D::radius, 1e-4, 1.0, "m", "radius of a cylinder or sphere shape"},
       {"center", &D::center, -10.0, 10.0, "m", "centre of the patch"},
       {"normal", &D::normal, -1.0, 1.0, "", "outward normal at the centre; non-zero, normalised on load"},

@@ -13,7 +13,6 @@ namespace palpate {
 
 namespace {
 
-constexpr double kCoulomb = 8.9875517923e9;  // N·m²/C², k_e = 1/(4π ε0)
 constexpr double kPi = 3.14159265358979323846;
 constexpr size_t kMaxParticles = size_t{1} << 27;  // 134 M: int32 indices with room to spare
 
@@ -28,30 +27,33 @@ std::int16_t snorm16(double v) {
 }
 
 // The material checks shared by every layout. `spacing` is the largest rest distance between
-// neighbours: the separation rule can only hold at rest when max_separation exceeds it.
-Status check_material(const ChargedMaterialDef& m, double spacing, const std::string& where) {
-  auto positive = [&](double v, const char* key, const char* unit) -> Status {
-    if (!(std::isfinite(v) && v > 0))
-      return Error{where + ": material '" + key + "' is " + num(v) + " " + unit +
-                   "; expected a finite value > 0"};
-    return {};
-  };
+// neighbours: the separation rule can only hold at rest when the separation limit exceeds it.
+// Returns the separation limit S (m): max_separation when set, else (1 + max_strain) · spacing.
+Result<double> check_material(const ChargedMaterialDef& m, double spacing, const std::string& where) {
   for (auto [v, key, unit] : {std::tuple{m.max_displacement, "max_displacement", "m"},
-                              std::tuple{m.sphere_of_influence, "sphere_of_influence", "m"},
-                              std::tuple{m.max_separation, "max_separation", "m"},
-                              std::tuple{m.particle_charge, "particle_charge", "C"},
-                              std::tuple{m.hip_charge, "hip_charge", "C"},
-                              std::tuple{m.friction_velocity, "friction_velocity", "m/s"}})
-    if (Status s = positive(v, key, unit); !s) return s;
-  for (auto [v, key] : {std::pair{m.elasticity, "elasticity"}, std::pair{m.puncture_force, "puncture_force"},
-                        std::pair{m.track_friction, "track_friction"}})
+                              std::tuple{m.max_strain, "max_strain", ""},
+                              std::tuple{m.puncture_force, "puncture_force", "N"},
+                              std::tuple{m.thickness, "thickness", "m"},
+                              std::tuple{m.friction_presliding, "friction_presliding", "m"}})
+    if (!(std::isfinite(v) && v > 0))
+      return Error{where + ": material '" + key + "' is " + num(v) + (*unit ? " " : "") + unit +
+                   "; expected a finite value > 0"};
+  for (auto [v, key] : {std::pair{m.elasticity, "elasticity"}, std::pair{m.particle_radius, "particle_radius"},
+                        std::pair{m.max_separation, "max_separation"}, std::pair{m.puncture_time, "puncture_time"},
+                        std::pair{m.friction_per_length, "friction_per_length"}})
     if (!(std::isfinite(v) && v >= 0))
       return Error{where + ": material '" + key + "' is " + num(v) + "; expected a finite value >= 0"};
-  if (!(m.max_separation > spacing))
-    return Error{where + ": material 'max_separation' (" + num(m.max_separation) +
-                 " m) must exceed the rest distance between neighbours (" + num(spacing) +
-                 " m), or the patch would violate the separation rule at rest"};
-  return {};
+  for (auto [v, key] : {std::pair{m.linear_share, "linear_share"}, std::pair{m.snap_share, "snap_share"}})
+    if (!(std::isfinite(v) && v >= 0 && v <= 1))
+      return Error{where + ": material '" + key + "' is " + num(v) + "; expected a value in [0, 1]"};
+  if (m.max_separation > 0) {
+    if (!(m.max_separation > spacing))
+      return Error{where + ": material 'max_separation' (" + num(m.max_separation) +
+                   " m) must exceed the rest distance between neighbours (" + num(spacing) +
+                   " m), or the patch would violate the separation rule at rest"};
+    return m.max_separation;
+  }
+  return (1 + m.max_strain) * spacing;
 }
 
 // Unit tangents completing `n` to a right-handed frame (u, v, n): u ⟂ n, v = n × u.
@@ -125,7 +127,8 @@ Result<ChargedModel> build_charged_patch(const PatchDef& p, const ChargedMateria
   if (p.width < p.spacing || p.height < p.spacing * std::sqrt(3.0) / 2)
     return Error{where + ": patch 'spacing' (" + num(p.spacing) + " m) leaves fewer than two particles "
                  "across width " + num(p.width) + " m or height " + num(p.height) + " m"};
-  if (Status s = check_material(material, p.spacing, where); !s) return s.error();
+  Result<double> separation = check_material(material, p.spacing, where);
+  if (!separation) return separation.error();
 
   m.spacing = p.spacing;
   m.row_pitch = p.spacing * std::sqrt(3.0) / 2;
@@ -142,7 +145,7 @@ Result<ChargedModel> build_charged_patch(const PatchDef& p, const ChargedMateria
   m.normal = p.normal.normalized();
   frame(m.normal, m.tangent_u, m.tangent_v);
   m.radius = m.layout == ChargedLayout::flat ? 0.0 : p.radius;
-  m.coulomb_kqq = kCoulomb * material.hip_charge * material.particle_charge;
+  m.max_separation = *separation;
 
   const size_t n = static_cast<size_t>(m.rows) * static_cast<size_t>(m.cols);
   m.origin_x.resize(n), m.origin_y.resize(n), m.origin_z.resize(n);
@@ -220,7 +223,7 @@ Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface, const Cha
   if (extent / s > 2e4)
     return Error{where + ": material 'mesh_spacing' (" + num(s) + " m) is too fine for a surface " +
                  num(extent) + " m across; expected at most 20000 particles along it"};
-  if (Status st = check_material(material, 0.0, where); !st) return st.error();
+  if (Result<double> st = check_material(material, 0.0, where); !st) return st.error();
 
   Result<SurfaceMesh> remeshed = charged::remesh_isotropic(surface, s, where);
   if (!remeshed) return remeshed.error();
@@ -261,16 +264,18 @@ Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface, const Cha
   double longest = 0;
   for (size_t i = 0; i < n; ++i)
     for (int j : adj[i]) longest = std::max(longest, len(static_cast<int>(i), j));
-  if (Status st = check_material(material, longest, where); !st) return st.error();
+  // With max_strain the limit is taken from the longest kept edge, so every edge satisfies it at rest.
+  Result<double> separation = check_material(material, longest, where);
+  if (!separation) return separation.error();
 
   ChargedModel m;
   m.material = material;
   m.layout = ChargedLayout::mesh;
   m.spacing = s;
-  m.coulomb_kqq = kCoulomb * material.hip_charge * material.particle_charge;
-  // Cell grid over the origins, cells as wide as the reach of the HIP (sphere of influence plus
-  // maximum displacement), so a query visits at most 3 x 3 x 3 cells.
-  m.cell_size = material.sphere_of_influence + material.max_displacement;
+  m.max_separation = *separation;
+  // Cell grid over the origins, cells as wide as the reach of a thin tool (particle radius plus
+  // maximum displacement plus a spacing), so a query visits few cells; a thicker tool visits more.
+  m.cell_size = material.particle_radius + material.max_displacement + s;
   m.grid_min = r.V.colwise().minCoeff().transpose() - Vec3::Constant(0.5 * m.cell_size);
   const Vec3 gmax = r.V.colwise().maxCoeff().transpose() + Vec3::Constant(0.5 * m.cell_size);
   for (int k = 0; k < 3; ++k)
@@ -342,6 +347,9 @@ void reset(const ChargedModel& model, ChargedState& s) noexcept {
   s.force = Vec3::Zero();
   s.time = 0;
   s.contact_peak = 0;
+  s.give = Vec3::Zero();
+  s.give_age = 0;
+  s.engaged = false;
   const long resets = s.stats.numeric_resets;
   s.stats = ChargedStepStats{};
   s.stats.numeric_resets = resets;

@@ -1,5 +1,6 @@
 // step.cpp — the charged-particle step kernel pipeline: HIP update, repulsion, propagation
-// (separation rule), relaxation (elasticity), force (with puncture and track friction).
+// (separation rule), relaxation (elasticity), force (contact law on the indentation, puncture,
+// snap, track centring and shaft friction).
 // Equations and reasoning: docs/models/charged-particles.md.
 #include <palpate/charged.h>
 
@@ -12,8 +13,7 @@ namespace {
 
 constexpr std::uint8_t kActive = 1, kQueued = 2, kReversed = 4;
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kRepulsionFloor = 0.1;   // r_floor / R: the repulsion saturates below it
-constexpr double kAttractionCore = 0.5;   // r_core / R: the attraction is linear below it
+constexpr double kOnset = 0.1;            // e / D: the contact law's linear term starts over e
 constexpr double kSeparationSlack = 1e-5; // relative: float rounding allowed on max_separation
 constexpr double kPinnedFraction = 1 - 1e-4;  // |p - o| ≥ this · D counts as at maximum displacement
 
@@ -149,24 +149,83 @@ void touch(ChargedState& s, int i, size_t& q_tail) noexcept {
   }
 }
 
+// The rest surface under the HIP: signed distance of h above it (m, along the outward normal) and
+// that normal. Generated patches use their exact shape; a mesh patch a smooth kernel-weighted mean
+// of the tangent planes at the particles' origins near h (weights (1 − r²/ρ²)², C¹ in h).
+// False when h is not over the patch (beyond a lattice's edges, or no mesh particle within ρ).
+bool rest_surface(const ChargedModel& m, const Vec3& h, double rho, double& dist, Vec3& normal) noexcept {
+  switch (m.layout) {
+    case ChargedLayout::flat: {
+      const Vec3 d = h - m.center;
+      dist = d.dot(m.normal), normal = m.normal;
+      return std::abs(d.dot(m.tangent_u)) <= m.u_mid && std::abs(d.dot(m.tangent_v)) <= m.v_mid;
+    }
+    case ChargedLayout::cylinder: {
+      const Vec3 w = h - (m.center - m.radius * m.normal);
+      const double x = w.dot(m.tangent_u), z = w.dot(m.normal), rh = std::hypot(x, z);
+      if (!(rh > 0)) return false;
+      dist = rh - m.radius, normal = (x * m.tangent_u + z * m.normal) / rh;
+      return std::abs(w.dot(m.tangent_v)) <= m.v_mid && std::abs(m.radius * std::atan2(x, z)) <= m.u_mid;
+    }
+    case ChargedLayout::sphere: {
+      const Vec3 w = h - (m.center - m.radius * m.normal);
+      const double rh = w.norm();
+      if (!(rh > 0)) return false;
+      dist = rh - m.radius, normal = w / rh;
+      const double lat = std::asin(std::clamp(w.dot(m.tangent_v) / rh, -1.0, 1.0));
+      const double lon = std::atan2(w.dot(m.tangent_u), w.dot(m.normal));
+      return std::abs(m.radius * lat) <= m.v_mid && std::abs(m.radius * lon) <= m.u_mid;
+    }
+    case ChargedLayout::mesh:
+      break;
+  }
+  double wsum = 0, dsum = 0;
+  Vec3 nsum = Vec3::Zero();
+  const double rho2 = rho * rho;
+  for_each_candidate(m, h, rho, [&](int i) {
+    const auto k = static_cast<size_t>(i);
+    const Vec3 d = h - m.origin(k);
+    const double r2 = d.squaredNorm();
+    if (r2 >= rho2) return;
+    const double a = 1 - r2 / rho2, w = a * a;
+    const Vec3 n = m.particle_normal(k);
+    wsum += w, dsum += w * d.dot(n), nsum += w * n;
+  });
+  if (!(wsum > 0) || !(nsum.norm() > 0)) return false;
+  dist = dsum / wsum, normal = nsum.normalized();
+  return true;
+}
+
 // Stage 1 — HIP update: which holes the tool passes through now; exits, and holes that close.
-bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, const Vec3& tail,
+// A tool enters a hole's track when its tip is within R of the track's line and no farther than
+// R above the rest surface there (where contact would begin: re-entering an open hole along its
+// track meets no resistance), and stays in it while the shaft passes within R + D of the hole's
+// centre and the tip is less than R above the surface (leaving sideways tears out; leaving
+// outward is clear of any contact, so the patch's force resumes from zero).
+bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, const Vec3& tail, double R,
                    int tissue) noexcept {
-  const double R = m.material.sphere_of_influence, rho = R + m.material.max_displacement;
+  const double D = m.material.max_displacement;
   bool any = false;
   for (ChargedHole& hole : s.holes) {
     if (!hole.open) continue;
-    Vec3 q;
-    // Hysteresis: a tool leaves a track only once it is clear of the patch's reach (R + D), so
-    // a withdrawing needle is not re-indented from the inner side by the still-displaced
-    // particles around the hole (that gave force spikes of ~3 N on the way out).
-    const double reach = hole.in_track ? rho : R;
-    const bool now = segment_distance(tail, tip, hole.center, q) < reach;
+    const double height = (tip - hole.surface).dot(hole.normal);
+    bool now = false;
+    if (height < R) {
+      if (hole.in_track) {
+        Vec3 q;
+        now = segment_distance(tail, tip, hole.center, q) < R + D;
+      } else {
+        Vec3 e = tip - hole.center;
+        e -= e.dot(hole.axis) * hole.axis;
+        now = e.norm() < R;
+      }
+    }
     if (hole.in_track && !now) {
       push_event(s, TissueEvent{s.time, "exit", tissue, 0.0, 0.0});
       if (m.material.hole_closes) {  // the particles' charges return to normal: the hole heals
-        for_each_candidate(m, hole.center, 2 * rho, [&](int i) {
-          if ((m.origin(static_cast<size_t>(i)) - hole.center).norm() < 2 * rho)
+        const double reach = 2 * (R + D);
+        for_each_candidate(m, hole.center, reach, [&](int i) {
+          if ((m.origin(static_cast<size_t>(i)) - hole.center).norm() < reach)
             s.flags[static_cast<size_t>(i)] &= static_cast<std::uint8_t>(~kReversed);
         });
         hole.open = false;
@@ -183,8 +242,8 @@ bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, cons
 // max_displacement from its origin. Pushing along the normal (not radially, and always inward:
 // the tool comes from the outer side) keeps particles from sliding around or over the HIP, so a
 // tool cannot slip through or under the patch without puncturing it.
-void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, size_t& q_tail) noexcept {
-  const double R = m.material.sphere_of_influence, D = m.material.max_displacement;
+void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, double R, size_t& q_tail) noexcept {
+  const double D = m.material.max_displacement;
   for_each_candidate(m, h, R + D, [&](int i) {
     const auto k = static_cast<size_t>(i);
     ++s.stats.candidates;
@@ -212,7 +271,7 @@ void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, size_t& q_
 // violates max_separation just far enough to satisfy it, keeping the neighbour within its own
 // max_displacement; the neighbour is queued in turn. Only disturbed particles are visited.
 void propagation(const ChargedModel& m, ChargedState& s, size_t q_head, size_t q_tail) noexcept {
-  const double S = m.material.max_separation, D = m.material.max_displacement;
+  const double S = m.max_separation, D = m.material.max_displacement;
   const double S_check2 = S * S * (1 + kSeparationSlack) * (1 + kSeparationSlack);
   const size_t bound = 16 * m.size() + 1024;  // safety bound; never reached by a consistent patch
   size_t pops = 0;
@@ -287,101 +346,147 @@ void relaxation(const ChargedModel& m, ChargedState& s, double dt) noexcept {
 
 }  // namespace
 
-double charged_repulsion(double kqq, double r, double R) noexcept {
-  if (!(r < R)) return 0.0;
-  const double rc = std::max(r, kRepulsionFloor * R);
-  return kqq * (1 / (rc * rc) - 1 / (R * R));
+double charged_contact_force(const ChargedMaterialDef& mat, double delta) noexcept {
+  if (!(delta > 0)) return 0.0;
+  const double D = mat.max_displacement, Fp = mat.puncture_force, beta = mat.linear_share;
+  const double e = kOnset * D;
+  const double a1 = beta * Fp / (D - 0.5 * e), a2 = (1 - beta) * Fp / (D * D);
+  const double psi = delta < e ? delta * delta / (2 * e) : delta - 0.5 * e;
+  return a1 * psi + a2 * delta * delta;
 }
 
-double charged_attraction(double kqq, double r, double R) noexcept {
-  if (!(r < R)) return 0.0;
-  const double core = kAttractionCore * R;
-  if (r >= core) return kqq * (1 / (r * r) - 1 / (R * R));
-  return kqq * (1 / (core * core) - 1 / (R * R)) * (r / core);
+double charged_snap_force(const ChargedMaterialDef& mat, double z, double R) noexcept {
+  if (!(R > 0) || !(z > 0) || !(z < R)) return 0.0;
+  const double x = z / R, b = x * (1 - x);
+  return mat.snap_share * mat.puncture_force * 16 * b * b;
+}
+
+double charged_track_force(const ChargedMaterialDef& mat, double offset, double R) noexcept {
+  if (!(R > 0)) return 0.0;
+  return mat.puncture_force * std::tanh(offset / R);
 }
 
 Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double dt, int tissue) noexcept {
   s.stats.contacts = s.stats.pinned = 0;
   s.stats.propagation_visits = s.stats.propagation_moves = s.stats.candidates = 0;
+  s.stats.indentation = s.stats.shaft_in_layer = 0;
   const ChargedMaterialDef& mat = m.material;
-  const double R = mat.sphere_of_influence, D = mat.max_displacement;
+  const double D = mat.max_displacement;
   if (!hip.position.allFinite() || !hip.axis.allFinite() || !hip.velocity.allFinite() ||
-      !std::isfinite(hip.shaft_length) || !std::isfinite(dt) || dt < 0) {
+      !std::isfinite(hip.shaft_length) || !std::isfinite(hip.radius) || !std::isfinite(dt) || dt < 0) {
     reset(m, s);
     ++s.stats.numeric_resets;
     push_event(s, TissueEvent{s.time, "reset", tissue, 0.0, 0.0});
     return Vec3::Zero();
   }
   s.time += dt;
+  const double R = std::max(0.0, hip.radius) + mat.particle_radius;  // the sphere of influence
   const Vec3 h = hip.position;
   const Vec3 axis = hip.axis.norm() > 1e-12 ? Vec3(hip.axis.normalized()) : Vec3(0, -1, 0);
   const Vec3 tail = h - axis * std::max(0.0, hip.shaft_length);
 
   // 1. HIP update.
-  const bool in_track = update_tracks(m, s, h, tail, tissue);
+  const bool in_track = update_tracks(m, s, h, tail, R, tissue);
   // 2. Repulsion (a tool inside a hole's track passes through: the patch does not push it).
   size_t q_tail = 0;
-  if (!in_track) repulsion(m, s, h, q_tail);
+  if (!in_track) repulsion(m, s, h, R, q_tail);
   // 3. Propagation.
   propagation(m, s, 0, q_tail);
   // 4. Relaxation.
   relaxation(m, s, dt);
 
-  // 5. Force on the HIP: repulsion of the particles in its sphere of influence, attraction of
-  // charge-reversed (punctured) particles near the tool, friction along every track it is in.
+  // 5. Force on the HIP.
   Vec3 force = Vec3::Zero();
-  // Pushed to max_displacement in stage 2, then relaxed once by exp(-λ dt) in stage 4.
-  const double pinned_at = kPinnedFraction * D * std::exp(-mat.elasticity * dt);
-  int nearest_pinned = -1;
-  double nearest_r = R;
-  auto attract = [&](int i, const Vec3& from) {
-    const Vec3 d = s.position(static_cast<size_t>(i)) - from;
-    const double r = d.norm();
-    if (r < R && r > 0) force += charged_attraction(m.coulomb_kqq, r, R) * (d / r);
-  };
+  double dist = 0;
+  Vec3 normal = Vec3::Zero();
+  bool contact = false;
   if (!in_track) {
+    // Contact: the law Φ of the indentation δ = R − (height of h above the rest surface), along
+    // the surface's outward normal. δ measures the tool against the surface the particles sample,
+    // so it is the same at any spacing, and a function of the tool's position alone (any dt).
+    const double reach = R + D + 2 * m.spacing;
+    if (!rest_surface(m, h, reach, dist, normal)) {
+      s.engaged = false;
+    } else {
+      const double delta = R - dist;
+      // Contact is engaged from the outside: first touch at an indentation up to D, then held
+      // down to D + 2R. A tool that appears deeper (started under the layer, or jumped) is under
+      // it, not pressing it, until it comes back out.
+      s.engaged = delta > 0 && (s.engaged ? delta <= D + 2 * R : delta <= D);
+      if (s.engaged) {
+        contact = true;
+        s.stats.indentation = delta;
+        // Puncture: a needle whose indentation reaches max_displacement (Φ(D) = puncture_force);
+        // the force of this tick is the law's value there, not past it (a tool that jumped deep).
+        const bool puncture = hip.sharp && delta >= D;
+        force = charged_contact_force(mat, puncture ? D : delta) * normal;
+        if (puncture) {
+          ChargedHole& hole = s.holes[static_cast<size_t>(s.next_hole)];
+          s.next_hole = (s.next_hole + 1) % kChargedMaxHoles;
+          hole.center = h, hole.axis = axis, hole.in_track = true, hole.open = true;
+          hole.surface = h - dist * normal, hole.normal = normal, hole.bristle = 0;
+          // The give below carries this tick's force from here on — only what the hand already
+          // felt (the last tick's contact force): a tool that jumped into the layer gets no pop.
+          const double felt = s.contact_peak > 0 ? force.norm() : 0.0;
+          s.give = force.norm() > 0 ? Vec3(force * (felt / force.norm())) : Vec3::Zero();
+          s.give_age = 0;
+          s.engaged = false;
+          force.setZero();
+          for_each_candidate(m, h, R + D, [&](int i) {
+            if ((s.position(static_cast<size_t>(i)) - h).norm() < R) s.flags[static_cast<size_t>(i)] |= kReversed;
+          });
+          s.contact_peak = std::max(s.contact_peak, felt);
+          push_event(s, TissueEvent{s.time, "puncture", tissue, -dist, s.contact_peak});
+        }
+      }
+    }
+    // Figures: particles in the sphere of influence, and those at maximum displacement.
+    const double pinned_at = kPinnedFraction * D * std::exp(-mat.elasticity * dt);
     for_each_candidate(m, h, R + D, [&](int i) {
       const auto k = static_cast<size_t>(i);
-      if (s.flags[k] & kReversed) return attract(i, h);
-      const Vec3 d = s.position(k) - h;
-      const double r = d.norm();
-      if (!(r < R)) return;
+      if (s.flags[k] & kReversed) return;
+      if (!((s.position(k) - h).squaredNorm() < R * R)) return;
       ++s.stats.contacts;
-      if ((s.position(k) - m.origin(k)).norm() >= pinned_at) {
-        ++s.stats.pinned;
-        if (r < nearest_r) nearest_r = r, nearest_pinned = i;
-      }
-      if (r > 0) force -= charged_repulsion(m.coulomb_kqq, r, R) * (d / r);
+      if ((s.position(k) - m.origin(k)).norm() >= pinned_at) ++s.stats.pinned;
     });
   } else {
-    for (const ChargedHole& hole : s.holes) {
+    const double v_axial = hip.velocity.dot(axis);
+    const double T = mat.thickness, z0 = mat.friction_presliding;
+    // Dahl's bristle over this tick's axial travel x = v·dt, solved exactly for constant v:
+    // dz/dx = 1 − sgn(v)·z/z0, so z → z0·sgn(v) + (z − z0·sgn(v))·e^(−|x|/z0). A function of the
+    // travel, not the tick; a reversal moves the friction smoothly through zero over ~z0.
+    for (ChargedHole& hole : s.holes) {
       if (!hole.in_track) continue;
+      // The snap: the reversed charges pull the tip on along the needle just past the hole.
+      force += charged_snap_force(mat, (h - hole.center).dot(hole.axis), R) * axis;
+      // Centring: the shaft point nearest the hole's centre is pulled back toward the track's line.
       Vec3 q;
-      segment_distance(tail, h, hole.center, q);  // shaft point nearest the hole's centre
-      const Vec3 before = force;
-      for_each_candidate(m, q, R + D, [&](int i) {
-        if (!(s.flags[static_cast<size_t>(i)] & kReversed)) return;
-        Vec3 qi;  // the shaft point nearest this particle
-        segment_distance(tail, h, s.position(static_cast<size_t>(i)), qi);
-        attract(i, qi);
-      });
-      // The reversed charges pull the tool along its axis (the snap into the hole). Sideways,
-      // the sum over an irregular ring of reversed particles does not cancel and would push a
-      // needle held on its track with a constant force (1–2 N in the CVC scene): instead the
-      // track centres the shaft, a spring from the shaft to the track's line of stiffness
-      // puncture_force / R (so an offset of R costs the puncture force), zero on the line.
-      const Vec3 pulled = force - before;
-      force = before + pulled.dot(axis) * axis;
+      segment_distance(tail, h, hole.center, q);
       Vec3 off = q - hole.center;
       off -= off.dot(hole.axis) * hole.axis;
       const double off_norm = off.norm();
-      const double k_track = mat.puncture_force / R;
-      if (off_norm > 0) force -= k_track * std::min(off_norm, R) * (off / off_norm);
-      // Friction of the track on the tool (Okamura et al. 2004's shaft friction, Karnopp-like
-      // but smoothed): opposes the axial velocity in both directions.
-      const double v_axial = hip.velocity.dot(axis);
-      force -= mat.track_friction * std::tanh(v_axial / mat.friction_velocity) * axis;
+      if (off_norm > 0) force -= charged_track_force(mat, off_norm, R) * (off / off_norm);
+      // Friction on the length of shaft inside the layer (Okamura et al. 2004): the part of the
+      // segment tail → tip whose depth below the rest surface lies in [0, thickness], Karnopp's
+      // kinetic friction per unit length smoothed by tanh so it is continuous through zero speed.
+      const double d_tip = (hole.surface - h).dot(hole.normal), d_tail = (hole.surface - tail).dot(hole.normal);
+      const double lo = std::min(d_tip, d_tail), hi = std::max(d_tip, d_tail);
+      const double overlap = std::max(0.0, std::min(hi, T) - std::max(lo, 0.0));
+      const double length = hi > lo ? overlap / (hi - lo) * (h - tail).norm() : 0.0;
+      s.stats.shaft_in_layer += length;
+      const double x = v_axial * dt, target = x > 0 ? z0 : (x < 0 ? -z0 : hole.bristle);
+      hole.bristle = target + (hole.bristle - target) * std::exp(-std::abs(x) / z0);
+      force -= mat.friction_per_length * length * (hole.bristle / z0) * axis;
     }
+  }
+  // The give: the force at the last puncture falls to zero over puncture_time (smoothstep, C¹),
+  // as the torn layer lets go: the pop a hand feels, no faster than a device can render it.
+  if (s.give_age < mat.puncture_time) {
+    if (mat.puncture_time > 0) {
+      const double x = s.give_age / mat.puncture_time;
+      force += s.give * (1 - x * x * (3 - 2 * x));
+    }
+    s.give_age += dt;
   }
   if (!force.allFinite()) {
     reset(m, s);
@@ -389,22 +494,7 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
     push_event(s, TissueEvent{s.time, "reset", tissue, 0.0, 0.0});
     return Vec3::Zero();
   }
-  const double magnitude = force.norm();
-  s.contact_peak = s.stats.contacts > 0 ? std::max(s.contact_peak, magnitude) : 0.0;
-
-  // Puncture: a particle at maximum displacement and a force past the threshold. The particles
-  // inside the sphere of influence reverse their charge; the tool is now in the hole's track.
-  if (!in_track && nearest_pinned >= 0 && magnitude >= mat.puncture_force) {
-    ChargedHole& hole = s.holes[static_cast<size_t>(s.next_hole)];
-    s.next_hole = (s.next_hole + 1) % kChargedMaxHoles;
-    hole.center = h, hole.axis = axis, hole.in_track = true, hole.open = true;
-    for_each_candidate(m, h, R + D, [&](int i) {
-      if ((s.position(static_cast<size_t>(i)) - h).norm() < R) s.flags[static_cast<size_t>(i)] |= kReversed;
-    });
-    const auto k = static_cast<size_t>(nearest_pinned);
-    const double depth = (m.origin(k) - h).dot(m.particle_normal(k).normalized());
-    push_event(s, TissueEvent{s.time, "puncture", tissue, depth, s.contact_peak});
-  }
+  s.contact_peak = contact ? std::max(s.contact_peak, force.norm()) : 0.0;
   s.force = force;
   return force;
 }

@@ -27,6 +27,10 @@ class ChargedTissue final : public Tissue {
     hip.velocity = tool.velocity;
     // A needle's shaft follows its tip through the holes; a sphere probe is only its centre.
     hip.shaft_length = tool.needle ? tool.length : 0.0;
+    // The sphere of influence is the tool's radius plus the particles' (the seed's definition);
+    // only a needle punctures.
+    hip.radius = tool.radius;
+    hip.sharp = tool.needle;
     return palpate::step(model_, state_, hip, dt, index_);
   }
 
@@ -44,6 +48,8 @@ class ChargedTissue final : public Tissue {
         static_cast<double>(std::count_if(state_.holes.begin(), state_.holes.end(),
                                           [](const ChargedHole& h) { return h.open; })),
         static_cast<double>(state_.stats.propagation_visits),
+        state_.stats.indentation,
+        state_.stats.shaft_in_layer,
     };
     std::copy_n(values, std::min(out.size(), std::size(values)), out.begin());
   }
@@ -74,7 +80,8 @@ class ChargedTissue final : public Tissue {
  private:
   static inline const std::string kFigureNames[] = {
       "force_N", "max_displacement_m", "active_particles", "contact_particles",
-      "pinned_particles", "punctured", "holes", "propagation_visits"};
+      "pinned_particles", "punctured", "holes", "propagation_visits",
+      "indentation_m", "shaft_in_layer_m"};
   std::string name_;
   int index_;
   ChargedModel model_;
