@@ -1,4 +1,5 @@
-// bench_device.cpp — cost of reading the scripted device once per tick.
+// bench_device.cpp — cost of reading the scripted device once per tick (with and without a
+// turning needle).
 #include <palpate/device.h>
 #include <palpate/safety.h>
 
@@ -9,7 +10,7 @@
 static void BM_ScriptedDeviceRead(benchmark::State& state) {
   std::vector<palpate::Waypoint> w;
   for (int i = 0; i < 100; ++i) w.push_back({i * 0.1, palpate::Vec3(0, -0.001 * i, 0)});
-  palpate::ScriptedDevice dev(w, {});
+  palpate::ScriptedDevice dev(w, {}, palpate::Vec3(0, -1, 0));
   palpate::DeviceState s;
   double t = 0;
   for (auto _ : state) {
@@ -20,6 +21,24 @@ static void BM_ScriptedDeviceRead(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_ScriptedDeviceRead);
+
+// The same with a needle direction at every waypoint: the orientation is slerped each read.
+static void BM_ScriptedDeviceReadTurning(benchmark::State& state) {
+  std::vector<palpate::Waypoint> w;
+  for (int i = 0; i < 100; ++i)
+    w.push_back({i * 0.1, palpate::Vec3(0, -0.001 * i, 0),
+                 palpate::Vec3(0.3 * std::sin(0.5 * i), -1, 0.3 * std::cos(0.5 * i)).normalized()});
+  palpate::ScriptedDevice dev(w, {}, palpate::Vec3(0, -1, 0));
+  palpate::DeviceState s;
+  double t = 0;
+  for (auto _ : state) {
+    dev.read(t, s);
+    benchmark::DoNotOptimize(s.orientation);
+    t += 0.001;
+    if (t > 10) t = 0;
+  }
+}
+BENCHMARK(BM_ScriptedDeviceReadTurning);
 
 // Cost of the safety filter every force passes through once per tick.
 static void BM_ForceSafetyFilter(benchmark::State& state) {

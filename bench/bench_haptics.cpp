@@ -43,7 +43,7 @@ std::vector<palpate::Waypoint> press() {
 
 void tick_bench(benchmark::State& state, palpate::Coupling coupling, double physics_dt) {
   BenchFloor floor;
-  palpate::ScriptedDevice dev(press(), {});
+  palpate::ScriptedDevice dev(press(), {}, palpate::Vec3(0, -1, 0));
   palpate::LoopSettings s;
   s.realtime = false;
   s.coupling = coupling;
@@ -114,7 +114,7 @@ static void BM_RealtimeLoop(benchmark::State& state) {
   const double seconds = env ? std::max(0.1, std::atof(env)) : 2.0;
   for (auto _ : state) {
     BenchFloor floor;
-    palpate::ScriptedDevice dev(press(), {});
+    palpate::ScriptedDevice dev(press(), {}, palpate::Vec3(0, -1, 0));
     palpate::LoopSettings s;
     s.realtime = true;
     s.max_ticks = static_cast<std::uint64_t>(seconds * 1000);

@@ -85,3 +85,21 @@ TEST(RenderFrame, ProbeDentShowsWhereItPresses) {
   ASSERT_TRUE(render_frame_png(*scene, snaps, tool.tip, f, file).ok());
   EXPECT_GT(std::filesystem::file_size(file), 1000u);
 }
+
+TEST(RenderFrame, TheNeedleIsDrawnAlongTheAxisOfItsTick) {
+  SceneDef scene;
+  scene.tool.kind = "needle";
+  scene.tool.axis = Vec3(0, -2, 0);  // as loaded it would be unit; the frame normalises it anyway
+  scene.camera = CameraDef{};
+  const std::vector<TissueSnapshot> none;
+  std::vector<std::vector<float>> storage;
+  std::vector<std::vector<uint32_t>> idx;
+  auto fixed = frame_scene(scene, none, Vec3::Zero(), Vec3::Zero(), {}, storage, idx);
+  ASSERT_TRUE(fixed.ok()) << fixed.error().message;
+  ASSERT_TRUE(fixed->tool.has_value());
+  EXPECT_EQ(fixed->tool->axis, Vec3(0, -1, 0));
+  const Vec3 tilted = Vec3(0.5, -1, 0.25).normalized();
+  auto turned = frame_scene(scene, none, Vec3::Zero(), Vec3::Zero(), {}, storage, idx, tilted);
+  ASSERT_TRUE(turned.ok()) << turned.error().message;
+  EXPECT_EQ(turned->tool->axis, tilted);
+}

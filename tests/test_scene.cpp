@@ -415,6 +415,37 @@ TEST(SceneErrors, WaypointTimesMustNotGoBack) {
             "s.yaml:3: device.waypoints: only a scripted device follows waypoints (kind is 'openhaptics')");
 }
 
+TEST(Scene, WaypointDirectionsAreNormalisedAndOptional) {
+  auto r = parse_scene(std::string("device:\n  waypoints:\n    - {t: 0, position: [0, 0, 0]}\n"
+                                   "    - {t: 1, position: [0, 0, 0], direction: [0, -0.5, 0.5]}\n"
+                                   "    - {t: 2, position: [0, 0, 0]}\n") +
+                           kOneTissue,
+                       "s.yaml");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const auto& w = r->device.waypoints;
+  ASSERT_EQ(w.size(), 3u);
+  EXPECT_EQ(w[0].direction, Vec3::Zero());  // not given: the device keeps the previous (tool.axis)
+  EXPECT_NEAR((w[1].direction - Vec3(0, -1, 1) / std::sqrt(2.0)).norm(), 0.0, 1e-15);
+  EXPECT_EQ(w[2].direction, Vec3::Zero());
+}
+
+TEST(SceneErrors, WaypointDirectionMustBeANonZeroFiniteVector) {
+  EXPECT_EQ(error_of(std::string("device:\n  waypoints:\n    - {t: 0, position: [0, 0, 0]}\n"
+                                 "    - {t: 1, position: [0, 0, 0],\n       direction: [0, 0, 0]}\n") +
+                     kOneTissue),
+            "s.yaml:5: device.waypoints[1].direction: expected a non-zero direction [x, y, z], got [0, 0, 0]");
+  EXPECT_EQ(error_of(std::string("device:\n  waypoints:\n    - {t: 0, position: [0, 0, 0], direction: [0, .nan, 1]}\n") +
+                     kOneTissue),
+            "s.yaml:3: device.waypoints[0].direction[1]: expected a finite number, got '.nan'");
+  EXPECT_EQ(error_of(std::string("device:\n  waypoints:\n    - {t: 0, position: [0, 0, 0], direction: [0, 1]}\n") +
+                     kOneTissue),
+            "s.yaml:3: device.waypoints[0].direction: expected 3 numbers [x, y, z], got a list of 2");
+  EXPECT_EQ(error_of(std::string("device:\n  waypoints:\n    - {t: 0, position: [0, 0, 0], diretcion: [0, 1, 0]}\n") +
+                     kOneTissue),
+            "s.yaml:3: device.waypoints[0].diretcion: unknown key (did you mean 'direction'?); valid waypoint "
+            "keys: t, position, direction");
+}
+
 TEST(SceneErrors, NanAndInfinityAreRejected) {
   EXPECT_EQ(error_of(std::string("duration: .nan\n") + kOneTissue),
             "s.yaml:1: duration: expected a finite number (s), got '.nan'");
@@ -574,6 +605,8 @@ TEST(SceneReference, ListsEveryKeyWithItsDefault) {
   EXPECT_NE(md.find("| `kind` | string |  | `\"sphere\"` |  | `sphere, needle` | "), std::string::npos);
   EXPECT_NE(md.find("| `axis` | [x, y, z] |  | `[0, -1, 0]` | [-1, 1] |"), std::string::npos);
   EXPECT_NE(md.find("| `name` | string |  | required |"), std::string::npos);
+  EXPECT_NE(md.find("| `direction` | [x, y, z] |  | the previous waypoint's (`tool.axis` for the first) | [-1, 1] |"),
+            std::string::npos);
   EXPECT_NE(md.find("| `tissues` | list of mappings |  | required |"), std::string::npos);
   EXPECT_NE(md.find("| `hole_closes` | bool |  | `false` |"), std::string::npos);
   EXPECT_NE(md.find("| `width` | integer | pixels | `800` | [16, 16384] |"), std::string::npos);

@@ -32,6 +32,11 @@ struct DeviceState {
   std::uint32_t buttons = 0;             // bit i = button i + 1 pressed
 };
 
+// The direction the needle points for a device orientation: `orientation` (unit) applied to
+// `tool_axis` (unit: the scene's tool.axis, the needle's direction in the device frame),
+// normalised. An orientation without rotation gives `tool_axis` itself, bit for bit.
+Vec3 needle_axis(const Vec3& tool_axis, const Quat& orientation) noexcept;
+
 // A haptic device backend. read/write are called from the haptic thread: noexcept, no allocation.
 class Device {
  public:
@@ -44,9 +49,13 @@ class Device {
 };
 
 // Timed waypoints, linearly interpolated, held at the ends; velocity is the segment's slope.
+// Orientation: at a waypoint with a direction, the shortest-arc rotation taking `tool_axis` (the
+// needle's direction in the device frame, the scene's tool.axis) to that direction; a waypoint
+// without one (or with a zero or non-finite one) keeps the previous waypoint's (identity for the
+// first). Between waypoints the orientation is slerped, so the needle turns at a constant rate.
 class ScriptedDevice final : public Device {
  public:
-  ScriptedDevice(std::vector<Waypoint> waypoints, DeviceLimits limits);
+  ScriptedDevice(std::vector<Waypoint> waypoints, DeviceLimits limits, const Vec3& tool_axis);
   const DeviceLimits& limits() const override { return limits_; }
   bool read(double t, DeviceState& out) noexcept override;
   void write(const Vec3& force, const Vec3& torque) noexcept override;
@@ -54,12 +63,19 @@ class ScriptedDevice final : public Device {
 
  private:
   std::vector<Waypoint> waypoints_;
+  std::vector<Quat> orientations_;  // one per waypoint (unit), resolved at construction
   DeviceLimits limits_;
   Vec3 last_force_ = Vec3::Zero();
   size_t segment_ = 0;  // cache of the current segment: ticks walk forward
 };
 
-// Read a CSV trajectory (columns t,x,y,z; '#' comments and one header line allowed).
+// The rotation a scripted device reports for a needle pointing along `direction` when the device
+// frame's needle is `tool_axis` (both non-zero): the shortest arc from one to the other.
+Quat orientation_towards(const Vec3& tool_axis, const Vec3& direction);
+
+// Read a CSV trajectory: columns t,x,y,z (s, m) or t,x,y,z,dx,dy,dz (a needle direction, any
+// non-zero length, normalised; a row without one keeps the previous row's); '#' comments and one
+// header line allowed. Errors name the file and line.
 Result<std::vector<Waypoint>> load_trajectory_csv(const std::filesystem::path& file);
 
 // One recorded tick of a session: what a replay plays back.

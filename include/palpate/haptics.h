@@ -52,7 +52,8 @@ struct LoopSettings {
   double proxy_mass = 0.001;          // kg, virtual coupling
   double coupling_stiffness = 0;      // N/m, virtual coupling; 0 = the device's maximum
   WatchdogSettings watchdog;
-  ToolDef tool;
+  ToolDef tool;                       // tool.axis: the needle's direction at identity orientation;
+                                      // each tick the tissues see orientation * tool.axis
   std::filesystem::path csv;          // record every tick here (via <csv>.part); "" = no recording
   size_t recorder_capacity = 8192;    // rows in the recorder's ring
   bool try_realtime_priority = true;  // ask for SCHED_FIFO (needs privileges; fine without)
@@ -114,7 +115,8 @@ class HapticLoop {
 
   LoopStats stats() const;
   // Finish the recording (rename <csv>.part to <csv>); after stop(). The kept series are
-  // t, tool_x, tool_y, tool_z, force_x, force_y, force_z, force_N, one vector each.
+  // t, tool_x, tool_y, tool_z, force_x, force_y, force_z, force_N, tool_qw, tool_qx, tool_qy,
+  // tool_qz (the device's orientation, unit), one vector each.
   Status finish_recording();
   const std::vector<std::vector<double>>& series() const;
   // Tissue events drained during the run, in order (after finish_recording()).

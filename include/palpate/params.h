@@ -26,6 +26,7 @@ struct Param {
   const char* unit = "";      // SI unit, "" when dimensionless
   const char* doc = "";       // one line: what it means
   const char* choices = "";   // for strings: allowed values separated by '|', "" = any
+  const char* absent = "";    // what leaving the key out means, when not the default value
 };
 
 }  // namespace palpate

@@ -112,15 +112,17 @@ struct FrameOptions {
 };
 
 // Draw one frame: each tissue's surface (a grid snapshot as the seed's Bézier patches, a
-// triangle snapshot smoothed with PN triangles), the tool at `tip`, the force arrow, from the
+// triangle snapshot smoothed with PN triangles), the tool at `tip` (a needle along `tool_axis`,
+// unit, as it pointed at that tick; none = the scene's tool.axis), the force arrow, from the
 // scene's camera (or a camera framing every snapshot when the scene has none). Allocates:
 // call it off the haptic thread, from copied snapshots.
 Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                                 const Vec3& tip, const Vec3& force, const FrameOptions& options,
                                 std::vector<std::vector<float>>& storage,
-                                std::vector<std::vector<uint32_t>>& index_storage);
+                                std::vector<std::vector<uint32_t>>& index_storage,
+                                const std::optional<Vec3>& tool_axis = std::nullopt);
 Status render_frame_png(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                         const Vec3& tip, const Vec3& force, const std::filesystem::path& file,
-                        const FrameOptions& options = {});
+                        const FrameOptions& options = {}, const std::optional<Vec3>& tool_axis = std::nullopt);
 
 }  // namespace palpate

@@ -23,12 +23,15 @@ struct ToolDef {
 struct Waypoint {
   double t = 0;                     // s
   Vec3 position = Vec3::Zero();     // m
+  // Unit direction the needle points at time t (scene frame); zero = not given: the previous
+  // waypoint's direction holds (the scene's tool.axis, i.e. the device at identity, for the first).
+  Vec3 direction = Vec3::Zero();
 };
 
 struct DeviceDef {
   std::string kind = "scripted";    // scripted | replay | openhaptics
-  std::vector<Waypoint> waypoints;  // scripted: timed waypoints, linearly interpolated
-  std::filesystem::path trajectory; // scripted: CSV of t,x,y,z instead of waypoints
+  std::vector<Waypoint> waypoints;  // scripted: timed waypoints, linearly interpolated (slerp)
+  std::filesystem::path trajectory; // scripted: CSV of t,x,y,z[,dx,dy,dz] instead of waypoints
   std::filesystem::path recording;  // replay: a run's CSV
   double max_force = 3.3;           // N (Geomagic Touch peak force)
   double max_force_rate = 200.0;    // N/s, largest change of the force sent

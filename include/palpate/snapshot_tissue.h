@@ -29,6 +29,7 @@ struct SnapshotStamp {
   Vec3 tip = Vec3::Zero();   // m, the HIP
   Vec3 force = Vec3::Zero(); // N, this tissue's force on the tool
   bool stepped = false;      // false for a copy not made by step() (construction, publish_now)
+  Vec3 axis = Vec3(0, -1, 0);  // unit, the needle's direction at that step (handle to tip)
 };
 
 class SnapshotTissue final : public Tissue {

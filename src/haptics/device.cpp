@@ -1,7 +1,13 @@
-// device.cpp — make_device: the backend a scene's `device.kind` names, with its limits.
+// device.cpp — make_device: the backend a scene's `device.kind` names, with its limits; the
+// needle's direction for a device orientation.
 #include <palpate/device.h>
 
 namespace palpate {
+
+Vec3 needle_axis(const Vec3& tool_axis, const Quat& orientation) noexcept {
+  if (orientation.vec().isZero()) return tool_axis;
+  return (orientation * tool_axis).normalized();
+}
 
 Result<std::unique_ptr<Device>> make_device(const SceneDef& scene) {
   const DeviceDef& d = scene.device;
@@ -18,7 +24,7 @@ Result<std::unique_ptr<Device>> make_device(const SceneDef& scene) {
       if (!loaded) return loaded.error();
       points = std::move(*loaded);
     }
-    return std::unique_ptr<Device>(new ScriptedDevice(std::move(points), limits));
+    return std::unique_ptr<Device>(new ScriptedDevice(std::move(points), limits, scene.tool.axis));
   }
   if (d.kind == "replay") {
     if (d.recording.empty())

@@ -24,6 +24,8 @@ enum Col : size_t {
   kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kTick,
   kQw, kQx, kQy, kQz, kButtons, kEvents, kFixedColumns
 };
+// The columns kept in memory for series(): t .. force_N, then tool_qw .. tool_qz.
+constexpr size_t kKeptSeries = kForceN + 1 + 4;
 
 // A double shared between threads, written by one.
 struct RelaxedDouble {
@@ -69,7 +71,9 @@ struct HapticLoop::Impl {
   // Haptic-thread state.
   ToolState tool;
   DeviceState state;
+  Vec3 scene_axis = Vec3(0, -1, 0);      // unit, the needle's direction at identity (device frame)
   Vec3 last_good_position = Vec3::Zero();
+  Quat last_good_orientation = Quat::Identity();
   std::uint64_t k = 0;                   // ticks done
   bool headless_now = false;
 
@@ -97,21 +101,30 @@ struct HapticLoop::Impl {
     const double t = double(k + 1) * dt;
     TickFault fault = TickFault::none;
 
-    // 1. Device. A failed read or a non-finite pose holds the last good position.
+    // 1. Device. A failed read, a non-finite pose or a degenerate orientation (no rotation can be
+    // read from it) holds the last good pose: the needle neither jumps back to the scene's axis
+    // inside the tissue nor turns on garbage.
     const bool read_ok = device.read(t, state);
-    if (!read_ok || !state.position.allFinite() || !state.velocity.allFinite() ||
-        !state.orientation.coeffs().allFinite()) {
+    const double qn = state.orientation.norm();
+    if (!read_ok || !state.position.allFinite() || !state.velocity.allFinite() || !std::isfinite(qn) ||
+        !(qn > 1e-6)) {
       fault = TickFault::device_failed;
       state.position = last_good_position;
       state.velocity.setZero();
-      state.orientation = Quat::Identity();
+      state.orientation = last_good_orientation;
     } else {
+      if (qn != 1.0) state.orientation.coeffs() /= qn;
       last_good_position = state.position;
+      last_good_orientation = state.orientation;
     }
     const bool virtual_coupling = s.coupling == Coupling::virtual_;
     tool.time = t;
     tool.tip = virtual_coupling ? proxy.position : state.position;
     tool.velocity = virtual_coupling ? proxy.velocity : state.velocity;
+    // The needle points along the device's orientation applied to its device-frame axis, for the
+    // HIP and the proxy alike. With no rotation it is the scene's axis exactly (no round-off), so
+    // a device without orientation gives the same ticks as a fixed axis, bit for bit.
+    tool.axis = needle_axis(scene_axis, state.orientation);
     tool.grasp = (state.buttons & 1u) != 0;
 
     // 2. Tissues: inline ones step now; multi-rate ones render their linearised contact.
@@ -242,7 +255,9 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
   m.tool.radius = settings.tool.radius;
   m.tool.needle = settings.tool.kind == "needle";
   m.tool.length = m.tool.needle ? settings.tool.length : 0.0;
-  m.tool.axis = settings.tool.axis.norm() > 0 ? Vec3(settings.tool.axis.normalized()) : Vec3(0, -1, 0);
+  if (settings.tool.axis.allFinite() && settings.tool.axis.norm() > 0)
+    m.scene_axis = settings.tool.axis.normalized();
+  m.tool.axis = m.scene_axis;
   m.columns = {"t", "tool_x", "tool_y", "tool_z", "force_x", "force_y", "force_z", "force_N",
                "tick", "tool_qw", "tool_qx", "tool_qy", "tool_qz", "buttons", "events"};
   if (settings.coupling == Coupling::virtual_) {
@@ -254,6 +269,8 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
   if (device.read(0.0, first) && first.position.allFinite()) {
     m.proxy.position = first.position;
     m.last_good_position = first.position;
+    const double qn = first.orientation.norm();
+    if (std::isfinite(qn) && qn > 1e-6) m.last_good_orientation = Quat(first.orientation.coeffs() / qn);
   }
   for (size_t i = 0; i < tissues.size(); ++i) {
     const LoopTissue& lt = tissues[i];
@@ -278,7 +295,7 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
     formats[kEvents] = ColumnFormat::safety_events;
     RecorderOptions ro;
     ro.capacity_rows = settings.recorder_capacity;
-    ro.keep_columns = {kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN};
+    ro.keep_columns = {kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kQw, kQx, kQy, kQz};
     auto rec = Recorder::open(settings.csv, m.columns, formats, ro);
     if (!rec) return rec.error();
     m.recorder = std::move(*rec);
@@ -356,7 +373,7 @@ Status HapticLoop::finish_recording() {
   if (m.running.load()) return Error{"haptic loop: stop() before finish_recording()"};
   Status st = m.recorder->close();
   m.series.clear();
-  for (size_t i = 0; i < kForceN + 1; ++i) m.series.push_back(m.recorder->kept(i));
+  for (size_t i = 0; i < kKeptSeries; ++i) m.series.push_back(m.recorder->kept(i));
   m.events.clear();
   for (const RecorderEvent& e : m.recorder->events())
     m.events.push_back({e.time, e.kind, e.tissue, e.depth, e.force});

@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <system_error>
 #include <thread>
 #include <unistd.h>
@@ -91,7 +92,8 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     }
     if (!frame_error.empty()) return;
     const fs::path file = out / fmt::format("frame_{:0{}}.png", k, digits);
-    if (Status s = render_frame_png(scene, frame_snaps, tool.tip, force, file, options.frame_options); !s)
+    const std::optional<Vec3> axis = tool.stepped ? std::optional<Vec3>(tool.axis) : std::nullopt;
+    if (Status s = render_frame_png(scene, frame_snaps, tool.tip, force, file, options.frame_options, axis); !s)
       frame_error = s.error().message;
     else
       frames.push_back({tool.time, file});
@@ -238,18 +240,20 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     j["events"].push_back({{"time_s", e.time}, {"kind", e.kind}, {"tissue", e.tissue},
                            {"depth_m", e.depth}, {"force_N", e.force}});
   // Plots of force against time and depth (a tool is always present in a scene).
-  const auto& ser = loop.series();  // t, tool_x..z, force_x..z, force_N
+  const auto& ser = loop.series();  // t, tool_x..z, force_x..z, force_N, tool_qw..qz
   const size_t n = ser.empty() ? 0 : ser[0].size();
   if (options.plots && n > 0) {
     PlotSeries ps;
     ps.time.resize(n), ps.depth.resize(n), ps.force.resize(n), ps.axial.resize(n);
-    const Vec3 axis = scene.tool.axis.normalized();
     size_t contact = n;
     for (size_t k = 0; k < n && contact == n; ++k)
       if (ser[7][k] > 1e-9) contact = k;
     const size_t ref = contact == n ? 0 : contact;
     const Vec3 tip0(ser[1][ref], ser[2][ref], ser[3][ref]);
+    const Vec3 tool_axis = scene.tool.axis.normalized();
     for (size_t k = 0; k < n; ++k) {
+      // Depth and axial force along the needle as it pointed at that tick (the loop's own axis).
+      const Vec3 axis = needle_axis(tool_axis, Quat(ser[8][k], ser[9][k], ser[10][k], ser[11][k]).normalized());
       ps.time[k] = ser[0][k];
       ps.depth[k] = (Vec3(ser[1][k], ser[2][k], ser[3][k]) - tip0).dot(axis);
       ps.force[k] = ser[7][k];

@@ -1,4 +1,5 @@
-// scripted_device.cpp — the scripted backend: timed waypoints or a CSV trajectory, interpolated.
+// scripted_device.cpp — the scripted backend: timed waypoints or a CSV trajectory, interpolated
+// (positions linearly, needle orientations by slerp).
 #include <palpate/device.h>
 
 #include <algorithm>
@@ -17,23 +18,37 @@ std::string fmt_number(double x) {
 }
 }  // namespace
 
-ScriptedDevice::ScriptedDevice(std::vector<Waypoint> waypoints, DeviceLimits limits)
+Quat orientation_towards(const Vec3& tool_axis, const Vec3& direction) {
+  return Quat::FromTwoVectors(tool_axis, direction).normalized();
+}
+
+ScriptedDevice::ScriptedDevice(std::vector<Waypoint> waypoints, DeviceLimits limits, const Vec3& tool_axis)
     : waypoints_(std::move(waypoints)), limits_(limits) {
   if (waypoints_.empty()) waypoints_.push_back(Waypoint{});
+  // Each waypoint's orientation, once: the read path only slerps between two of them.
+  const bool axis_ok = tool_axis.allFinite() && tool_axis.norm() > 0;
+  Quat q = Quat::Identity();
+  orientations_.reserve(waypoints_.size());
+  for (const Waypoint& w : waypoints_) {
+    if (axis_ok && w.direction.allFinite() && w.direction.norm() > 0)
+      q = orientation_towards(tool_axis, w.direction);
+    orientations_.push_back(q);
+  }
 }
 
 bool ScriptedDevice::read(double t, DeviceState& out) noexcept {
   const size_t n = waypoints_.size();
   out.time = t;
-  out.orientation = Quat::Identity();
   out.buttons = 0;
   if (n == 1 || t <= waypoints_.front().t) {
     out.position = waypoints_.front().position;
+    out.orientation = orientations_.front();
     out.velocity.setZero();
     return true;
   }
   if (t >= waypoints_.back().t) {
     out.position = waypoints_.back().position;
+    out.orientation = orientations_.back();
     out.velocity.setZero();
     return true;
   }
@@ -46,6 +61,10 @@ bool ScriptedDevice::read(double t, DeviceState& out) noexcept {
   const double s = span > 0 ? (t - a.t) / span : 1.0;
   out.position = a.position + s * (b.position - a.position);
   out.velocity = span > 0 ? Vec3((b.position - a.position) / span) : Vec3::Zero();
+  const Quat& qa = orientations_[segment_];
+  const Quat& qb = orientations_[segment_ + 1];
+  // Equal ends (every waypoint without a direction): exactly that orientation, no round-off.
+  out.orientation = qa.coeffs() == qb.coeffs() ? qa : qa.slerp(s, qb);
   return true;
 }
 
@@ -62,11 +81,12 @@ Result<std::vector<Waypoint>> load_trajectory_csv(const std::filesystem::path& f
     ++lineno;
     if (line.empty() || line[0] == '#') continue;
     std::replace(line.begin(), line.end(), ',', ' ');
+    const auto where = [&] { return file.string() + ":" + std::to_string(lineno) + ": "; };
     // strtod, not >>: it reads "nan" and "inf", which are then refused by name.
-    double v[4];
+    double v[8];
     int n = 0;
     const char* p = line.c_str();
-    for (; n < 4; ++n) {
+    for (; n < 8; ++n) {
       char* end = nullptr;
       v[n] = std::strtod(p, &end);
       if (end == p) break;
@@ -75,18 +95,31 @@ Result<std::vector<Waypoint>> load_trajectory_csv(const std::filesystem::path& f
     const bool first = header_allowed;
     header_allowed = false;
     if (n == 0 && first) continue;  // a header line such as "t,x,y,z"
-    if (n < 4)
-      return Error{file.string() + ":" + std::to_string(lineno) +
-                   ": expected four numbers t,x,y,z (s, m, m, m)"};
+    while (*p == ' ' || *p == '\t' || *p == '\r') ++p;
+    if (*p != '\0' && n >= 4)
+      return Error{where() + "unexpected '" + std::string(p) +
+                   "' after the numbers; expected t,x,y,z or t,x,y,z,dx,dy,dz"};
+    if (n != 4 && n != 7)
+      return Error{where() + "expected four numbers t,x,y,z (s, m, m, m) or seven t,x,y,z,dx,dy,dz "
+                             "(a needle direction), got " + std::to_string(n) +
+                   (n == 8 ? " or more" : "")};
     Waypoint w{v[0], Vec3(v[1], v[2], v[3])};
     if (!std::isfinite(w.t) || !w.position.allFinite())
-      return Error{file.string() + ":" + std::to_string(lineno) + ": value is NaN or infinite"};
+      return Error{where() + "value is NaN or infinite"};
+    if (n == 7) {
+      const Vec3 d(v[4], v[5], v[6]);
+      if (!d.allFinite()) return Error{where() + "direction dx,dy,dz is NaN or infinite"};
+      if (!(d.norm() > 1e-9))
+        return Error{where() + "direction dx,dy,dz is zero; expected a non-zero vector (it is normalised)"};
+      w.direction = d.normalized();
+    }
     if (!points.empty() && w.t < points.back().t)
-      return Error{file.string() + ":" + std::to_string(lineno) + ": time " + fmt_number(w.t) +
-                   " s goes back (previous " + fmt_number(points.back().t) + " s)"};
+      return Error{where() + "time " + fmt_number(w.t) + " s goes back (previous " +
+                   fmt_number(points.back().t) + " s)"};
     points.push_back(w);
   }
-  if (points.empty()) return Error{file.string() + ": trajectory has no rows (expected t,x,y,z)"};
+  if (points.empty())
+    return Error{file.string() + ": trajectory has no rows (expected t,x,y,z or t,x,y,z,dx,dy,dz)"};
   return points;
 }
 

@@ -38,7 +38,7 @@ SnapshotTissue::~SnapshotTissue() = default;
 
 Vec3 SnapshotTissue::step(const ToolState& tool, double dt) noexcept {
   const Vec3 force = inner_->step(tool, dt);
-  last_step_ = {tool.time, tool.tip, force, true};
+  last_step_ = {tool.time, tool.tip, force, true, tool.axis};
   if (wanted_.load(std::memory_order_relaxed) && wanted_.exchange(false, std::memory_order_acquire)) {
     copy_into_back(last_step_);
   }

@@ -58,6 +58,10 @@ std::span<const Param<Waypoint>> param_table(const Waypoint*) {
   static const Param<D> table[] = {
       {"t", &D::t, 0.0, 3600.0, "s", "time of the waypoint; not before the previous one"},
       {"position", &D::position, -10.0, 10.0, "m", "tool position (the HIP) at time t"},
+      {"direction", &D::direction, -1.0, 1.0, "",
+       "direction the needle points at time t, handle to tip; non-zero, normalised on load; "
+       "the device reports the shortest-arc rotation from `tool.axis` to it, slerped between waypoints",
+       "", "the previous waypoint's (`tool.axis` for the first)"},
   };
   return table;
 }
@@ -189,7 +193,9 @@ void render_section(std::string& out, const SectionDoc& doc) {
   for (const Param<Def>& p : param_table(static_cast<const Def*>(nullptr))) {
     const auto kind = static_cast<FieldKind>(p.field.index());
     const bool numeric = kind == FieldKind::number || kind == FieldKind::integer || kind == FieldKind::vec3;
-    const std::string dflt = contains(doc.required, p.key) ? "required" : "`" + default_text(def, p.field) + "`";
+    const std::string dflt = contains(doc.required, p.key) ? "required"
+                             : *p.absent                   ? std::string(p.absent)
+                                                           : "`" + default_text(def, p.field) + "`";
     const std::string choices = *p.choices ? "`" + choices_text(p.choices) + "`" : "";
     out += fmt::format("| `{}` | {} | {} | {} | {} | {} | {} |\n", p.key, field_kind_name(kind), p.unit, dflt,
                        numeric ? range_text(p.min, p.max, "") : "", choices, p.doc);
@@ -216,8 +222,8 @@ std::string scene_reference_markdown() {
             "file (not both; with neither it holds the tool at the origin); `replay` plays a `recording`.",
             kDeviceSections, {}});
   render_section<Waypoint>(out, {"`device.waypoints[]`",
-                                 "Each waypoint is a mapping; positions are linearly interpolated between them "
-                                 "and held after the last.",
+                                 "Each waypoint is a mapping; positions are linearly interpolated between them, "
+                                 "needle directions slerped, and both held after the last.",
                                  {}, kWaypointRequired});
   render_section<CameraDef>(out, {"`camera`", "Optional; without it a viewer picks its own viewpoint.", {}, {}});
   render_section<TissueDef>(out, {"`tissues[]`",

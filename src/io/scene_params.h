@@ -33,7 +33,8 @@ inline constexpr const char* kSceneRequired[] = {"tissues"};
 
 inline constexpr SectionKey kDeviceSections[] = {
     {"waypoints", "list of mappings",
-     "scripted: timed positions `{t, position}`, times non-decreasing (section `device.waypoints[]`)"},
+     "scripted: timed positions `{t, position}`, optionally `direction`, times non-decreasing "
+     "(section `device.waypoints[]`)"},
 };
 inline constexpr const char* kWaypointRequired[] = {"t", "position"};
 

@@ -309,13 +309,16 @@ DeviceDef parse_device(const Ctx& c, const YAML::Node& node, int line) {
       c.fail(k.line_or("waypoints", line), "device.waypoints",
              "only a scripted device follows waypoints (kind is '" + dev.kind + "')");
     if (!w->second.IsSequence() || w->second.size() == 0)
-      c.fail(wline, "device.waypoints", "expected a non-empty list of {t, position}, got " + describe(w->second));
+      c.fail(wline, "device.waypoints",
+             "expected a non-empty list of {t, position[, direction]}, got " + describe(w->second));
     for (size_t i = 0; i < w->second.size(); ++i) {
       const YAML::Node e = w->second[i];
       const std::string path = indexed("device.waypoints", i);
       const int eline = line_of(e, wline);
       Waypoint wp;
       const Keys wk = read_table(c, e, path, eline, "waypoint", wp, {}, kWaypointRequired);
+      if (wk.lines.count("direction"))
+        wp.direction = unit_direction(c, wp.direction, wk.line_or("direction", eline), path + ".direction");
       if (!dev.waypoints.empty() && wp.t < dev.waypoints.back().t)
         c.fail(wk.line_or("t", eline), path + ".t",
                "time " + format_number(wp.t) + " s goes back (previous waypoint at " +

@@ -33,7 +33,8 @@ CameraDef framing_camera(std::span<const TissueSnapshot> tissues, const Vec3& ti
 Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                                 const Vec3& tip, const Vec3& force, const FrameOptions& options,
                                 std::vector<std::vector<float>>& storage,
-                                std::vector<std::vector<uint32_t>>& index_storage) {
+                                std::vector<std::vector<uint32_t>>& index_storage,
+                                const std::optional<Vec3>& tool_axis) {
   RenderScene rs;
   rs.camera = scene.camera ? *scene.camera : framing_camera(tissues, tip);
   storage.clear();
@@ -85,7 +86,7 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
   RenderTool tool;
   tool.kind = scene.tool.kind;
   tool.tip = tip;
-  tool.axis = scene.tool.axis.normalized();
+  tool.axis = tool_axis ? *tool_axis : Vec3(scene.tool.axis.normalized());
   tool.radius = scene.tool.radius;
   tool.length = scene.tool.length;
   rs.tool = tool;
@@ -103,10 +104,10 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
 
 Status render_frame_png(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                         const Vec3& tip, const Vec3& force, const std::filesystem::path& file,
-                        const FrameOptions& options) {
+                        const FrameOptions& options, const std::optional<Vec3>& tool_axis) {
   std::vector<std::vector<float>> storage;
   std::vector<std::vector<uint32_t>> index_storage;
-  auto rs = frame_scene(scene, tissues, tip, force, options, storage, index_storage);
+  auto rs = frame_scene(scene, tissues, tip, force, options, storage, index_storage, tool_axis);
   if (!rs) return rs.error();
   return render_png(*rs, file);
 }

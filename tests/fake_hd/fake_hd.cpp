@@ -1,6 +1,7 @@
 // fake_hd.cpp — a stand-in for the OpenHaptics HD library (libHD.so) for the tests: it records the
 // calls it receives, runs scheduled callbacks on its own 1 kHz "servo" thread, and plays a pose
-// sequence (mm, as HD does). Control and inspection functions are prefixed fake_hd_.
+// sequence (mm, as HD does) with a stylus rotation (by default 90 degrees about y). Control and
+// inspection functions are prefixed fake_hd_.
 #include <atomic>
 #include <chrono>
 #include <cstring>
@@ -30,6 +31,8 @@ struct Fake {
   std::mutex m;
   std::map<std::string, int> calls;
   std::vector<double> poses;  // x,y,z in mm per frame
+  // The stylus rotation, column-major as in HD_CURRENT_TRANSFORM: 90 degrees about y by default.
+  double rotation[9] = {0, 0, -1, 0, 1, 0, 1, 0, 0};
   std::vector<double> forces; // x,y,z per hdSetDoublev(HD_CURRENT_FORCE)
   std::vector<Scheduled> scheduled;
   unsigned long next_handle = 1;
@@ -154,8 +157,9 @@ void hdGetDoublev(unsigned int what, double* out) {
     case 0x2051:  // HD_CURRENT_VELOCITY, mm/s
       for (int k = 0; k < 3; ++k) out[k] = 0.0;
       break;
-    case 0x2052: {  // HD_CURRENT_TRANSFORM: a rotation of 90 degrees about y, translation = position
-      const double m[16] = {0, 0, -1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1};
+    case 0x2052: {  // HD_CURRENT_TRANSFORM: the stylus rotation, translation = position
+      const double* r = f.rotation;
+      const double m[16] = {r[0], r[1], r[2], 0, r[3], r[4], r[5], 0, r[6], r[7], r[8], 0, 0, 0, 0, 1};
       std::memcpy(out, m, sizeof m);
       for (int k = 0; k < 3; ++k) out[12 + k] = n ? f.poses[i * 3 + size_t(k)] : 0.0;
       break;
@@ -198,6 +202,8 @@ void fake_hd_reset(int device_present) {
   std::lock_guard<std::mutex> lock(f.m);
   f.calls.clear();
   f.poses.clear();
+  const double about_y[9] = {0, 0, -1, 0, 1, 0, 1, 0, 0};
+  std::memcpy(f.rotation, about_y, sizeof about_y);
   f.forces.clear();
   f.scheduled.clear();
   f.enabled.clear();
@@ -211,6 +217,12 @@ void fake_hd_set_poses(const double* xyz_mm, int n) {
   Fake& f = fake();
   std::lock_guard<std::mutex> lock(f.m);
   f.poses.assign(xyz_mm, xyz_mm + 3 * n);
+}
+// The stylus rotation from now on: a 3x3 matrix, column-major (as HD_CURRENT_TRANSFORM holds it).
+void fake_hd_set_rotation(const double* columns) {
+  Fake& f = fake();
+  std::lock_guard<std::mutex> lock(f.m);
+  std::memcpy(f.rotation, columns, sizeof f.rotation);
 }
 int fake_hd_calls(const char* name) {
   Fake& f = fake();

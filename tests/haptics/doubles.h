@@ -1,5 +1,6 @@
 // doubles.h — test doubles for the haptics tests: a linear floor tissue (that can stall or offer
-// its stiffness), and adversarial devices (teleports, NaN poses, 500 Hz oscillation).
+// its stiffness), a tissue that records the tool it is handed, adversarial devices (teleports,
+// NaN poses, 500 Hz oscillation) and a device that turns.
 #pragma once
 
 #include <palpate/device.h>
@@ -10,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -82,6 +84,96 @@ class FunctionDevice final : public Device {
     if (written.size() < written.capacity()) written.push_back(force);
   }
   std::vector<Vec3> written;
+
+ private:
+  PoseFn fn_;
+  double dt_;
+  DeviceLimits limits_;
+};
+
+// A tissue that exerts no force and keeps every ToolState it is stepped with (sized up front, so
+// the haptic thread never allocates), or wraps another tissue and records what it is handed.
+// The states go into its own `seen`, or into a caller's vector (reserved by the caller) that
+// outlives it, e.g. when run_scene owns and destroys the tissue.
+class ToolRecorder final : public Tissue {
+ public:
+  explicit ToolRecorder(size_t max_steps, std::unique_ptr<Tissue> inner = nullptr)
+      : seen(own_), inner_(std::move(inner)) {
+    seen.reserve(max_steps);
+  }
+  explicit ToolRecorder(std::vector<ToolState>& sink, std::unique_ptr<Tissue> inner = nullptr)
+      : seen(sink), inner_(std::move(inner)) {}
+  ToolRecorder(const ToolRecorder&) = delete;
+  ToolRecorder& operator=(const ToolRecorder&) = delete;
+  const std::string& name() const override { return inner_ ? inner_->name() : name_; }
+  Vec3 step(const ToolState& tool, double dt) noexcept override {
+    if (seen.size() < seen.capacity()) seen.push_back(tool);
+    return inner_ ? inner_->step(tool, dt) : Vec3::Zero();
+  }
+  std::span<const std::string> figure_names() const override {
+    return inner_ ? inner_->figure_names() : std::span<const std::string>();
+  }
+  void figures(std::span<double> out) const noexcept override {
+    if (inner_) inner_->figures(out);
+  }
+  size_t drain_events(std::span<TissueEvent> out) noexcept override {
+    return inner_ ? inner_->drain_events(out) : 0;
+  }
+  void snapshot(TissueSnapshot& s) const override {
+    if (inner_) inner_->snapshot(s);
+  }
+  void reset() noexcept override {
+    if (inner_) inner_->reset();
+  }
+
+ private:
+  std::vector<ToolState> own_;
+
+ public:
+  std::vector<ToolState>& seen;
+
+ private:
+  std::unique_ptr<Tissue> inner_;
+  std::string name_ = "recorder";
+};
+
+// Forwards to a tissue with the tool's axis replaced by a fixed one: the loop as it was before the
+// needle followed the device's orientation.
+class FixedAxis final : public Tissue {
+ public:
+  FixedAxis(std::unique_ptr<Tissue> inner, const Vec3& axis) : inner_(std::move(inner)), axis_(axis) {}
+  const std::string& name() const override { return inner_->name(); }
+  Vec3 step(const ToolState& tool, double dt) noexcept override {
+    ToolState fixed = tool;
+    fixed.axis = axis_;
+    return inner_->step(fixed, dt);
+  }
+  std::span<const std::string> figure_names() const override { return inner_->figure_names(); }
+  void figures(std::span<double> out) const noexcept override { inner_->figures(out); }
+  size_t drain_events(std::span<TissueEvent> out) noexcept override { return inner_->drain_events(out); }
+  void snapshot(TissueSnapshot& s) const override { inner_->snapshot(s); }
+  void reset() noexcept override { inner_->reset(); }
+
+ private:
+  std::unique_ptr<Tissue> inner_;
+  Vec3 axis_;
+};
+
+// A device whose pose per tick comes from a function of the tick index that may also fail the
+// read (returns false) or hand out any orientation, NaN included.
+class PoseDevice final : public Device {
+ public:
+  // Fills position and orientation for tick k; returns what read() returns.
+  using PoseFn = bool (*)(long tick, Vec3& position, Quat& orientation);
+  PoseDevice(PoseFn fn, double dt, DeviceLimits limits = {}) : fn_(fn), dt_(dt), limits_(limits) {}
+  const DeviceLimits& limits() const override { return limits_; }
+  bool read(double t, DeviceState& out) noexcept override {
+    const long tick = std::lround(t / dt_) - 1;
+    out.time = t;
+    out.velocity.setZero();
+    return fn_(tick < 0 ? 0 : tick, out.position, out.orientation);
+  }
+  void write(const Vec3&, const Vec3&) noexcept override {}
 
  private:
   PoseFn fn_;

@@ -151,6 +151,7 @@ struct FakeHd {
   void* lib = ::dlopen(PALPATE_FAKE_HD, RTLD_NOW);
   void (*reset)(int) = nullptr;
   void (*set_poses)(const double*, int) = nullptr;
+  void (*set_rotation)(const double*) = nullptr;
   int (*calls)(const char*) = nullptr;
   int (*frame_errors)() = nullptr;
   int (*enabled)(unsigned) = nullptr;
@@ -158,6 +159,7 @@ struct FakeHd {
   FakeHd() {
     reset = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_reset"));
     set_poses = reinterpret_cast<void (*)(const double*, int)>(::dlsym(lib, "fake_hd_set_poses"));
+    set_rotation = reinterpret_cast<void (*)(const double*)>(::dlsym(lib, "fake_hd_set_rotation"));
     calls = reinterpret_cast<int (*)(const char*)>(::dlsym(lib, "fake_hd_calls"));
     frame_errors = reinterpret_cast<int (*)()>(::dlsym(lib, "fake_hd_frame_errors"));
     enabled = reinterpret_cast<int (*)(unsigned)>(::dlsym(lib, "fake_hd_enabled"));
@@ -278,4 +280,42 @@ TEST(HapticOpenHaptics, LoopDrivesTheDeviceWithinLimits) {
     last = hd.last_force();
   }
   EXPECT_EQ(last, Vec3::Zero());
+}
+
+TEST(HapticOpenHaptics, ARotatedStylusTiltsTheNeedleTheTissuesSee) {
+  FakeHd hd;
+  ASSERT_NE(hd.lib, nullptr) << ::dlerror();
+  hd.reset(1);
+  const double mm[3] = {0, 5, 0};
+  hd.set_poses(mm, 1);
+  // The stylus turned 30 degrees about z, then 20 about x (HD's transform, column-major).
+  const Eigen::Matrix3d r = (Eigen::AngleAxisd(0.5235987755982988, Vec3::UnitZ()) *
+                             Eigen::AngleAxisd(0.3490658503988659, Vec3::UnitX()))
+                                .toRotationMatrix();
+  hd.set_rotation(r.data());  // Eigen's default storage is column-major too
+  auto d = palpate::open_openhaptics(PALPATE_FAKE_HD, "", {});
+  ASSERT_TRUE(d.ok()) << d.error().message;
+  // Wait for the servo thread's first frame, so every tick below reads the rotated stylus.
+  palpate::DeviceState first;
+  for (int i = 0; i < 2000 && first.position.isZero(); ++i) {
+    ASSERT_TRUE((*d)->read(0.0, first));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ToolRecorder rec(400);
+  palpate::LoopSettings s;
+  s.max_ticks = 100;
+  s.try_realtime_priority = false;
+  s.tool.kind = "needle";
+  s.tool.axis = Vec3(0, -1, 0);
+  auto loop = palpate::HapticLoop::create(**d, {{&rec, 0.0}}, s);
+  ASSERT_TRUE(loop.ok()) << loop.error().message;
+  ASSERT_TRUE((*loop)->start());
+  (*loop)->wait();
+  ASSERT_GE(rec.seen.size(), 50u);
+  const Vec3 want = r * Vec3(0, -1, 0);
+  for (const palpate::ToolState& tool : rec.seen) {
+    ASSERT_NEAR((tool.axis - want).norm(), 0.0, 1e-12);
+    ASSERT_NEAR((tool.tip - Vec3(0, 0.005, 0)).norm(), 0.0, 1e-15);
+  }
+  EXPECT_GT(std::acos(-want.y()), 0.3);  // tilted well away from straight down
 }

@@ -1,5 +1,6 @@
 // test_loop.cpp — the haptic loop: adversarial devices stay within the safety rules, realtime runs
-// record every tick and report timing, the overrun watchdog zeroes force and the loop recovers.
+// record every tick and report timing, the overrun watchdog zeroes force and the loop recovers,
+// the needle's axis follows the device's orientation and holds through a failed read.
 #include <palpate/haptics.h>
 #include <palpate/run.h>
 
@@ -7,7 +8,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -25,6 +28,7 @@ struct CsvRow {
   long tick = 0;
   double t = 0, y = 0;
   Vec3 force = Vec3::Zero();
+  palpate::Quat q = palpate::Quat::Identity();
   std::string events;
 };
 
@@ -44,6 +48,7 @@ std::vector<CsvRow> read_rows(const fs::path& p) {
     r.y = std::stod(f.at(2));
     r.force = Vec3(std::stod(f.at(4)), std::stod(f.at(5)), std::stod(f.at(6)));
     r.tick = std::stol(f.at(8));
+    r.q = palpate::Quat(std::stod(f.at(9)), std::stod(f.at(10)), std::stod(f.at(11)), std::stod(f.at(12)));
     r.events = f.at(14);
     rows.push_back(r);
   }
@@ -246,4 +251,92 @@ TEST(Loop, RunSceneRealtimeWritesTimingToSummary) {
   for (const char* key : {"\"period_s\"", "\"deadline_misses\"", "\"realtime\": true", "\"overrun\"",
                           "\"stalled\"", "\"recorder_dropped\": 0"})
     EXPECT_NE(j.find(key), std::string::npos) << key << " in " << j;
+}
+
+// --- the needle's axis: orientation * tool.axis, every tick.
+namespace {
+
+using palpate::Quat;
+
+// A needle that turns every tick about a swinging axis (1 rad over 500 ticks) while it moves.
+bool turning_pose(long k, Vec3& p, Quat& q) {
+  p = Vec3(0.001 * std::sin(0.01 * double(k)), 0.002, 0);
+  const Vec3 about = Vec3(std::cos(0.003 * double(k)), 0.5, std::sin(0.003 * double(k))).normalized();
+  q = Quat(Eigen::AngleAxisd(0.002 * double(k), about));
+  return true;
+}
+
+// Turning about z, with bad reads: NaN orientation (ticks 100-109), a failed read (110-119), a zero
+// quaternion (120-129), a NaN position (130-139); then a quaternion of norm 3 (140-149).
+bool faulty_pose(long k, Vec3& p, Quat& q) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  p = Vec3(0, 0.002, 0);
+  q = Quat(Eigen::AngleAxisd(0.004 * double(k), Vec3::UnitZ()));
+  if (k >= 100 && k < 110) q.coeffs().setConstant(nan);
+  if (k >= 110 && k < 120) return false;
+  if (k >= 120 && k < 130) q.coeffs().setZero();
+  if (k >= 130 && k < 140) p.x() = nan;
+  if (k >= 140 && k < 150) q.coeffs() *= 3.0;
+  return true;
+}
+
+}  // namespace
+
+TEST(Loop, ToolAxisIsTheDeviceOrientationAppliedToTheSceneAxis) {
+  for (const auto coupling : {palpate::Coupling::direct, palpate::Coupling::virtual_}) {
+    SCOPED_TRACE(coupling == palpate::Coupling::direct ? "direct" : "virtual");
+    PoseDevice dev(&turning_pose, kDt);
+    ToolRecorder rec(600);
+    palpate::LoopSettings s = settings({}, false);
+    s.coupling = coupling;
+    s.tool.kind = "needle";
+    s.tool.axis = Vec3(0.3, -1, 0.2);  // not unit: the loop normalises it once
+    auto loop = palpate::HapticLoop::create(dev, {{&rec, 0.0}}, s);
+    ASSERT_TRUE(loop.ok()) << loop.error().message;
+    (*loop)->run_headless(500);
+    ASSERT_EQ(rec.seen.size(), 500u);
+    const Vec3 axis0 = s.tool.axis.normalized();
+    for (long k = 0; k < 500; ++k) {
+      Vec3 p;
+      Quat q;
+      turning_pose(k, p, q);
+      const palpate::ToolState& tool = rec.seen[size_t(k)];
+      ASSERT_NEAR((tool.axis - q * axis0).norm(), 0.0, 1e-14) << k;
+      ASSERT_NEAR(tool.axis.norm(), 1.0, 1e-15) << k;
+      ASSERT_TRUE(tool.needle);
+    }
+    // It really turned: 1 rad about an axis that is not the needle's.
+    EXPECT_GT(std::acos(rec.seen.front().axis.dot(rec.seen.back().axis)), 0.5);
+  }
+}
+
+TEST(Loop, AFailedReadHoldsTheLastGoodOrientationNotTheSceneAxis) {
+  const fs::path csv = fs::temp_directory_path() / "palpate_test_loop_axis_fault" / "run.csv";
+  PoseDevice dev(&faulty_pose, kDt);
+  ToolRecorder rec(300);
+  palpate::LoopSettings s = settings(csv, false);
+  s.tool.kind = "needle";
+  s.tool.axis = Vec3(1, 0, 0);
+  auto loop = palpate::HapticLoop::create(dev, {{&rec, 0.0}}, s);
+  ASSERT_TRUE(loop.ok()) << loop.error().message;
+  (*loop)->run_headless(200);
+  ASSERT_TRUE((*loop)->finish_recording());
+  EXPECT_EQ((*loop)->stats().safety.device_failed, 40u);  // ticks 100-139; a norm-3 quaternion is fine
+  const auto rows = read_rows(csv);
+  ASSERT_EQ(rows.size(), 200u);
+  ASSERT_EQ(rec.seen.size(), 200u);
+  const Vec3 held = rec.seen[99].axis;
+  EXPECT_GT((held - Vec3(1, 0, 0)).norm(), 0.3);  // 0.4 rad away from the scene's axis
+  for (size_t k = 0; k < 200; ++k) {
+    Vec3 p;
+    Quat q;
+    faulty_pose(long(k), p, q);
+    const Vec3 want = k >= 100 && k < 140 ? held : Vec3(q.normalized() * Vec3(1, 0, 0));
+    ASSERT_NEAR((rec.seen[k].axis - want).norm(), 0.0, 1e-14) << k;
+    ASSERT_TRUE(rec.seen[k].tip.allFinite()) << k;
+    // The recorded orientation is the one the needle had: unit, never NaN or zero.
+    ASSERT_NEAR(rows[k].q.norm(), 1.0, 1e-8) << k;
+    ASSERT_NEAR((rows[k].q * Vec3(1, 0, 0) - rec.seen[k].axis).norm(), 0.0, 1e-8) << k;
+  }
+  EXPECT_EQ(count_event(rows, "device_failed"), 40u);
 }

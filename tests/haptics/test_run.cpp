@@ -1,10 +1,17 @@
-// test_run.cpp — run_scene: fixed ticks, the force path through safety, outputs written atomically.
+// test_run.cpp — run_scene: fixed ticks, the force path through safety, outputs written atomically;
+// scripted needle directions reach the tissues and the plots; scenes without them run as before.
+#include <palpate/device.h>
 #include <palpate/run.h>
+#include <palpate/scene.h>
 #include <palpate/tissue.h>
+
+#include "haptics/doubles.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -151,4 +158,122 @@ TEST(Run, AtomicWriteReplacesWholeFileAndReportsBadDirectory) {
   auto s = palpate::write_file_atomic("/proc/palpate_no/x.txt", "x");
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("/proc/palpate_no"), std::string::npos) << s.error().message;
+}
+
+// --- the needle's direction from scripted waypoints, through run_scene.
+namespace {
+
+// Rows of a CSV of numbers (after one header line), split on ',' or ' '; '#' lines skipped.
+std::vector<std::vector<double>> numbers_of(const fs::path& p) {
+  std::istringstream in(slurp(p));
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    for (char& c : line)
+      if (c == ',') c = ' ';
+    std::istringstream ls(line);
+    std::vector<double> r;
+    for (std::string cell; ls >> cell;) r.push_back(std::strtod(cell.c_str(), nullptr));
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+}  // namespace
+
+TEST(Run, ScriptedDirectionsTiltTheNeedleTheTissueSeesAndThePlotsMeasureAlongIt) {
+  const fs::path out = fs::temp_directory_path() / "palpate_test_run_directions";
+  fs::remove_all(out);
+  palpate::SceneDef scene = press_scene(out);
+  scene.tool.kind = "needle";
+  scene.tool.length = 0.05;
+  const Vec3 down(0, -1, 0), tilted = Vec3(1, -1, 0).normalized();
+  scene.device.waypoints = {{0.0, Vec3(0, 0.002, 0), down},
+                            {0.5, Vec3(0.004, -0.004, 0), tilted},
+                            {1.0, Vec3(0.004, -0.008, 0)}};  // no direction: holds the last
+  std::vector<palpate::ToolState> seen;  // what the tissue was handed, tick by tick
+  seen.reserve(1000);
+  std::vector<std::unique_ptr<palpate::Tissue>> tissues;
+  tissues.push_back(std::make_unique<palpate::test::ToolRecorder>(seen, std::make_unique<Floor>(300.0)));
+  auto r = palpate::run_scene(scene, std::move(tissues));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(seen.size(), 1000u);
+  for (size_t k = 0; k < 1000; ++k) {
+    const palpate::ToolState& tool = seen[k];
+    ASSERT_NEAR(tool.axis.norm(), 1.0, 1e-15) << k;
+    if (tool.time <= 0.5) {
+      // In the plane of the two directions, on the arc between them at the segment's fraction.
+      const double frac = tool.time / 0.5, angle = std::atan2(tool.axis.x(), -tool.axis.y());
+      ASSERT_NEAR(tool.axis.z(), 0.0, 1e-15) << k;
+      ASSERT_NEAR(angle, frac * M_PI / 4, 1e-12) << k;
+    } else {
+      ASSERT_NEAR((tool.axis - tilted).norm(), 0.0, 1e-15) << k;
+    }
+  }
+  EXPECT_NEAR((seen[499].axis - tilted).norm(), 0.0, 1e-15);  // t = 0.5 s exactly at the waypoint
+
+  // run.csv records the orientation that gives this axis; force.dat measures depth and the axial
+  // force along the needle as it pointed at each tick, from the first contact.
+  const auto rows = numbers_of(out / "run.csv");
+  const auto dat = numbers_of(out / "force.dat");
+  ASSERT_EQ(rows.size(), 1000u);
+  ASSERT_EQ(dat.size(), 1000u);
+  size_t contact = 0;
+  while (contact < rows.size() && !(rows[contact][7] > 1e-9)) ++contact;
+  ASSERT_LT(contact, 200u);
+  const Vec3 tip0(rows[contact][1], rows[contact][2], rows[contact][3]);
+  for (size_t k = 0; k < rows.size(); ++k) {
+    const auto& row = rows[k];
+    const Vec3 axis = seen[k].axis;
+    const palpate::Quat q(row[9], row[10], row[11], row[12]);
+    ASSERT_NEAR((palpate::needle_axis(down, q.normalized()) - axis).norm(), 0.0, 1e-8) << k;
+    const Vec3 tip(row[1], row[2], row[3]), force(row[4], row[5], row[6]);
+    ASSERT_NEAR(dat[k][1], (tip - tip0).dot(axis) * 1e3, 2e-6) << k;  // mm, 6 decimals
+    ASSERT_NEAR(dat[k][3], -force.dot(axis), 2e-6) << k;
+  }
+}
+
+// A scene without directions runs exactly as the loop did before the needle followed the device:
+// every column of run.csv, bit for bit, against the same run whose tissues are handed the scene's
+// fixed axis. The needle is tilted (a non-unit tool.axis) and punctures a charged-particle patch.
+TEST(Run, ScenesWithoutDirectionsGiveTheFixedAxisRunBitForBit) {
+  const std::string yaml = R"(
+name: fixed-axis
+duration: 1.0
+tool: {kind: needle, radius: 0.0004, length: 0.05, axis: [0.2, -1, 0.1]}
+device:
+  kind: scripted
+  waypoints:
+    - {t: 0.0, position: [0, 0.006, 0]}
+    - {t: 0.8, position: [0.0012, -0.006, 0.0006]}
+    - {t: 1.0, position: [0.0003, 0.0, 0.0001]}
+tissues:
+  - name: skin
+    model: charged_particles
+    patch: {width: 0.02, height: 0.02, spacing: 0.001}
+    material: {max_displacement: 0.004, puncture_force: 1.0}
+)";
+  auto scene = palpate::parse_scene(yaml, "fixed-axis.yaml");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  std::string csv[2];
+  for (int fixed = 0; fixed < 2; ++fixed) {
+    auto tissue = palpate::make_tissue(*scene, 0);
+    ASSERT_TRUE(tissue.ok()) << tissue.error().message;
+    std::vector<std::unique_ptr<palpate::Tissue>> tissues;
+    if (fixed)
+      tissues.push_back(std::make_unique<palpate::test::FixedAxis>(std::move(*tissue), scene->tool.axis.normalized()));
+    else
+      tissues.push_back(std::move(*tissue));
+    palpate::RunOptions o;
+    o.out = fs::temp_directory_path() / ("palpate_test_run_fixed_axis_" + std::to_string(fixed));
+    o.plots = false;
+    auto r = palpate::run_scene(*scene, std::move(tissues), o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_GT(r->max_force, 0.1);  // the needle pressed on the tissue
+    csv[fixed] = slurp(o.out / "run.csv");
+  }
+  ASSERT_GT(csv[0].size(), 10000u);
+  EXPECT_TRUE(csv[0] == csv[1]) << "run.csv differs from the fixed-axis run";
 }
