@@ -1,10 +1,13 @@
-// test_view_parts.cpp — the viewer's GUI-free parts: the orbit camera's geometry, ray picking, and
-// SnapshotTissue's hand-over of positions from a stepping thread to a reading thread.
+// test_view_parts.cpp — the viewer's GUI-free parts: the orbit camera's geometry, ray picking, the
+// needle tilted by a mouse drag, and SnapshotTissue's hand-over of positions from a stepping
+// thread to a reading thread.
 #include <gtest/gtest.h>
 
 // The viewer lives in the app (it links GUI libraries the test binary must not); these two
-// source of it uses only palpate's public headers, so it is compiled in here.
+// sources of it use only palpate's public headers, so they are compiled in here.
 #include "../apps/palpate/view/camera.cpp"
+#include "../apps/palpate/view/tool_tilt.cpp"
+#include <palpate/device.h>
 #include <palpate/snapshot_tissue.h>
 
 #include <atomic>
@@ -74,6 +77,48 @@ TEST(ViewCamera, OrbitKeepsDistancePanMovesEyeAndTargetTogetherZoomApproaches) {
   EXPECT_GT((cam.target - target).norm(), 0.0);
   cam.zoom(2);
   EXPECT_NEAR(cam.distance, d * 0.81, 1e-12);
+}
+
+TEST(ViewTilt, TheHandleFollowsTheDragAndTheNeedleStaysUnit) {
+  const OrbitCamera cam = OrbitCamera::from(camera_def());
+  const Vec3 tool_axis(0, -1, 0);
+  const double k = 0.5 * M_PI / 180;  // rad per pixel
+  palpate::Quat q = palpate::Quat::Identity();
+  // A drag to the right and up, in small steps, from a needle pointing down: the handle (above the
+  // tip) moves right and up in the image, by the drag's length times k in angle, as far as the
+  // drag is across the handle.
+  for (int i = 0; i < 40; ++i) {
+    const Vec3 handle = -palpate::needle_axis(tool_axis, q);
+    const palpate::Quat next = palpate::view::tilt_by_drag(q, handle, 3.0, -1.0, cam.right(), cam.up(), k);
+    const Vec3 moved = -palpate::needle_axis(tool_axis, next) - handle;
+    const Vec3 drag = 3.0 * cam.right() + 1.0 * cam.up();
+    const Vec3 across = drag - drag.dot(handle) * handle;  // the part of the drag across the handle
+    ASSERT_NEAR(next.norm(), 1.0, 1e-15);
+    ASSERT_NEAR(palpate::needle_axis(tool_axis, next).norm(), 1.0, 1e-15);
+    ASSERT_NEAR(next.angularDistance(q), k * across.norm(), 1e-12) << i;
+    ASSERT_GT(moved.dot(cam.right()), 0.0) << i;
+    ASSERT_GT(moved.dot(across), 0.99 * moved.norm() * across.norm()) << i;
+    q = next;
+  }
+  // No drag, or a drag straight along the handle (a handle pointing at the eye): no turn.
+  const Vec3 handle = -palpate::needle_axis(tool_axis, q);
+  EXPECT_EQ(palpate::view::tilt_by_drag(q, handle, 0, 0, cam.right(), cam.up(), k).coeffs(), q.coeffs());
+  EXPECT_LT(palpate::view::tilt_by_drag(q, cam.right(), 5, 0, cam.right(), cam.up(), k).angularDistance(q), 1e-12);
+}
+
+TEST(ViewTilt, TurnTowardsStepsAtMostTheGivenAngleAlongTheShortestArc) {
+  const palpate::Quat from = palpate::Quat::Identity();
+  const palpate::Quat to(Eigen::AngleAxisd(1.0, Vec3(1, 2, 3).normalized()));
+  palpate::Quat q = from;
+  int steps = 0;
+  while (q.coeffs() != to.coeffs() && steps < 10000) {
+    const palpate::Quat next = palpate::view::turn_towards(q, to, 0.002);
+    ASSERT_LE(next.angularDistance(q), 0.002 + 1e-12);
+    ASSERT_NEAR(next.angularDistance(from) + next.angularDistance(to), 1.0, 1e-9);  // on the arc
+    q = next;
+    ++steps;
+  }
+  EXPECT_NEAR(steps, 500, 1);  // 1 rad at 2 mrad a step, the last one landing on `to` exactly
 }
 
 TEST(ViewPick, HitsTheNearestTriangleAndMissesOutside) {

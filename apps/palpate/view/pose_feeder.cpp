@@ -1,5 +1,8 @@
-// pose_feeder.cpp — PoseFeeder: the 1 kHz, speed-limited walk of the virtual device's pose.
+// pose_feeder.cpp — PoseFeeder: the 1 kHz, speed-limited walk of the virtual device's pose and
+// orientation.
 #include "pose_feeder.h"
+
+#include "tool_tilt.h"
 
 #include <chrono>
 
@@ -45,6 +48,22 @@ bool PoseFeeder::arrived() const {
   return arrived_;
 }
 
+void PoseFeeder::set_orientation_target(const Quat& target) {
+  if (!target.coeffs().allFinite() || !(target.norm() > 0)) return;
+  std::lock_guard lock(mutex_);
+  orientation_target_ = target.normalized();
+}
+
+Quat PoseFeeder::orientation_target() const {
+  std::lock_guard lock(mutex_);
+  return orientation_target_;
+}
+
+Quat PoseFeeder::orientation() const {
+  std::lock_guard lock(mutex_);
+  return orientation_;
+}
+
 void PoseFeeder::run() {
   using clock = std::chrono::steady_clock;
   auto last = clock::now();
@@ -65,6 +84,8 @@ void PoseFeeder::run() {
       arrived_ = distance <= reach;
       s.position = position_;
       s.velocity = dt > 0 ? Vec3(step / dt) : Vec3::Zero();
+      orientation_ = turn_towards(orientation_, orientation_target_, max_turn_rate * dt);
+      s.orientation = orientation_;
     }
     device_.set_pose(s);
   }

@@ -1,5 +1,6 @@
 // pose_feeder.h — PoseFeeder: moves the virtual haptic device towards where the mouse puts the
-// tool, at 1 kHz and a bounded speed, from its own thread (never the haptic thread).
+// tool (position and orientation), at 1 kHz and a bounded speed, from its own thread (never the
+// haptic thread).
 #pragma once
 
 #include <palpate/core.h>
@@ -15,7 +16,9 @@ namespace palpate::view {
 // 1 kHz: handing it the mouse's position once per frame would make the tool jump millimetres per
 // tick (a needle 0.8 mm thick would tunnel through a layer). So the GUI only sets a target; this
 // thread walks the device's pose towards it every millisecond at no more than `max_speed`, with a
-// matching velocity, through VirtualDevice::set_pose (lock-free on the haptic side).
+// matching velocity, through VirtualDevice::set_pose (lock-free on the haptic side). The needle's
+// orientation is walked the same way, at no more than `max_turn_rate`: a tilted needle inside the
+// tissue turns smoothly instead of jumping by a frame's worth of mouse travel.
 class PoseFeeder {
  public:
   // `device` must outlive the feeder. The pose starts (and stays until set_target) at `start`.
@@ -29,6 +32,11 @@ class PoseFeeder {
   Vec3 target() const;
   Vec3 position() const;                    // m, the pose last handed to the device
   bool arrived() const;                     // the pose has reached the target
+  void set_orientation_target(const Quat& target);  // unit; GUI thread
+  Quat orientation_target() const;
+  Quat orientation() const;                 // the orientation last handed to the device
+
+  static constexpr double max_turn_rate = 2.0;  // rad/s, fastest the mouse turns the needle
 
  private:
   void run();
@@ -36,6 +44,7 @@ class PoseFeeder {
   VirtualDevice& device_;
   mutable std::mutex mutex_;  // between the GUI and this thread only; the haptic thread never waits
   Vec3 target_, position_;
+  Quat orientation_target_ = Quat::Identity(), orientation_ = Quat::Identity();
   double max_speed_;
   bool arrived_ = true;
   std::atomic<bool> quit_{false};

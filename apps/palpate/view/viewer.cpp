@@ -7,6 +7,7 @@
 #include "gl_draw.h"
 #include "pose_feeder.h"
 #include "screenshot.h"
+#include "tool_tilt.h"
 #include <palpate/snapshot_tissue.h>
 
 #include <palpate/device.h>
@@ -193,6 +194,9 @@ class Viewer {
   bool scripted_probe_step(int width, int height);
   bool take_screenshot(const std::filesystem::path& file, int fb_width, int fb_height);
   double tool_radius() const { return scene_.tool.radius; }
+  // The needle's direction in the device frame (the scene's tool.axis), unit.
+  Vec3 scene_axis() const { return scene_.tool.axis.normalized(); }
+  static constexpr double kTiltRadiansPerPixel = 0.5 * M_PI / 180;
 
   static void on_scroll(GLFWwindow* window, double dx, double dy);
   static void on_key(GLFWwindow* window, int key, int scancode, int action, int mods);
@@ -226,6 +230,7 @@ class Viewer {
   double last_x_ = 0, last_y_ = 0;
   double scroll_ = 0;          // wheel notches since the last frame
   bool screenshot_key_ = false;
+  bool untilt_key_ = false;    // R: the needle back to the scene's tool.axis
   int screenshot_count_ = 0;
 
   // Scripted probe (--probe).
@@ -356,6 +361,7 @@ void Viewer::on_key(GLFWwindow* window, int key, int, int action, int) {
   auto* v = static_cast<Viewer*>(glfwGetWindowUserPointer(window));
   if (!v || action != GLFW_PRESS || (v->imgui_ready_ && ImGui::GetIO().WantCaptureKeyboard)) return;
   if (key == GLFW_KEY_F12 || key == GLFW_KEY_S) v->screenshot_key_ = true;
+  if (key == GLFW_KEY_R) v->untilt_key_ = true;
   if (key == GLFW_KEY_ESCAPE) glfwSetWindowShouldClose(window, GLFW_TRUE);
 }
 
@@ -384,9 +390,25 @@ void Viewer::frame_input(int width, int height) {
   const bool right = glfwGetMouseButton(window_, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;
   const bool shift = glfwGetKey(window_, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS ||
                      glfwGetKey(window_, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
+  const bool ctrl = glfwGetKey(window_, GLFW_KEY_LEFT_CONTROL) == GLFW_PRESS ||
+                    glfwGetKey(window_, GLFW_KEY_RIGHT_CONTROL) == GLFW_PRESS;
+  if (untilt_key_) {
+    untilt_key_ = false;
+    feeder_->set_orientation_target(Quat::Identity());
+  }
   if (!ui) {
-    if ((left && shift) || middle) camera_.pan(dx, dy, height);
-    else if (left) camera_.orbit(dx, dy);
+    if (left && ctrl) {
+      // Tilt the needle about its tip: its handle follows the pointer, 0.5 degree per pixel. The
+      // device (and so the loop's tool.axis) turns towards it at the feeder's bounded rate.
+      const Quat target = feeder_->orientation_target();
+      const Vec3 handle = -needle_axis(scene_axis(), target);
+      feeder_->set_orientation_target(
+          tilt_by_drag(target, handle, dx, dy, camera_.right(), camera_.up(), kTiltRadiansPerPixel));
+    } else if ((left && shift) || middle) {
+      camera_.pan(dx, dy, height);
+    } else if (left) {
+      camera_.orbit(dx, dy);
+    }
   }
   const Vec3 eye = camera_.eye();
   const Vec3 dir = camera_.ray_direction(x, y, width, height);
@@ -478,7 +500,7 @@ void Viewer::draw_scene(int fb_width, int fb_height) {
   TriangleMesh mesh;
   if (show_tool_) {
     if (scene_.tool.kind == "needle") {
-      const Vec3 axis = scene_.tool.axis.normalized();
+      const Vec3 axis = needle_axis(scene_axis(), feeder_->orientation());
       append_cylinder(mesh, tip - scene_.tool.length * axis, tip, scene_.tool.radius, scene_.tool.radius);
       append_sphere(mesh, tip, scene_.tool.radius, 10, 6);
     } else {
@@ -536,6 +558,7 @@ void Viewer::draw_panels() {
     ImGui::Checkbox("force arrow", &show_arrow_);
     ImGui::TextDisabled("left drag: orbit  shift/middle: pan  wheel: zoom");
     ImGui::TextDisabled("right drag: press the tool in, wheel: depth");
+    if (scene_.tool.kind == "needle") ImGui::TextDisabled("ctrl + left drag: tilt the needle  R: untilt");
     ImGui::TextDisabled("F12 or S: screenshot  Esc: quit");
   }
   if (ImGui::CollapsingHeader("Force", ImGuiTreeNodeFlags_DefaultOpen)) {
@@ -543,6 +566,11 @@ void Viewer::draw_panels() {
     ImGui::Text("|F| %.3f N  (%.3f, %.3f, %.3f)", force_.norm(), force_.x(), force_.y(), force_.z());
     ImGui::Text("tool %.1f, %.1f, %.1f mm", 1e3 * tip.x(), 1e3 * tip.y(), 1e3 * tip.z());
     if (pressing_) ImGui::Text("depth past the surface %.1f mm", 1e3 * press_depth_);
+    if (scene_.tool.kind == "needle") {
+      const Vec3 a = needle_axis(scene_axis(), feeder_->orientation());
+      ImGui::Text("needle (%.2f, %.2f, %.2f), %.1f deg from tool.axis", a.x(), a.y(), a.z(),
+                  std::acos(std::clamp(a.dot(scene_axis()), -1.0, 1.0)) * 180 / M_PI);
+    }
     // |F| over the last 5 s, resampled to fixed bins (frames are not evenly spaced).
     constexpr int kBins = 150;
     constexpr double kSpan = 5.0;
