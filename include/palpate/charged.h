@@ -129,6 +129,13 @@ struct ChargedHip {
   bool sharp = true;             // a needle punctures at max_displacement; a blunt probe never does
 };
 
+// A layer above the one being stepped, read (never written) by its step: its particles press on
+// the layer below (scene order lists layers from the outside in). Both point into live objects.
+struct ChargedLayer {
+  const ChargedModel* model = nullptr;
+  const ChargedState* state = nullptr;
+};
+
 // A generated rectangular hexagonal patch (flat, or bent onto a cylinder or sphere).
 // Errors name `where` (e.g. "scene.yaml:12: tissue 'skin'") and the offending key.
 Result<ChargedModel> build_charged_patch(const PatchDef& patch, const ChargedMaterialDef& material,
@@ -147,10 +154,11 @@ ChargedState make_charged_state(const ChargedModel& model);
 void reset(const ChargedModel& model, ChargedState& state) noexcept;
 
 // One tick of the model, dt seconds (docs/models/charged-particles.md): HIP update, repulsion,
-// propagation (separation rule), relaxation (elasticity), force. Returns the force of the tissue on
-// the HIP, N. noexcept, allocation-free, deterministic. `tissue` tags the events it emits.
+// the layers `above` pressing on this one, propagation (separation rule), relaxation (elasticity),
+// force. Returns the force of the tissue on the HIP, N. noexcept, allocation-free, deterministic.
+// `tissue` tags the events it emits.
 Vec3 step(const ChargedModel& model, ChargedState& state, const ChargedHip& hip, double dt,
-          int tissue = -1) noexcept;
+          int tissue = -1, std::span<const ChargedLayer> above = {}) noexcept;
 
 // Move undrained events into `out` (oldest first); returns how many. Never allocates.
 size_t drain_events(ChargedState& state, std::span<TissueEvent> out) noexcept;
@@ -166,10 +174,10 @@ size_t charged_bytes_per_particle(const ChargedModel& model);
 //   a1 = β·F_p/(D − e/2), a2 = (1 − β)·F_p/D²  (β = linear_share, F_p = puncture_force),
 // so Φ(D) = F_p exactly; 0 for δ ≤ 0. Monotone, C¹ everywhere.
 double charged_contact_force(const ChargedMaterialDef& mat, double indentation) noexcept;
-// The pull of a hole's reversed charges on a tool whose tip is z (m) past the puncture point along
-// the track, toward the inside (N, ≥ 0): snap_share·F_p·16 s²(1 − s)², s = z/R, 0 outside (0, R).
-// C¹; it is the snap going in and, at most snap_share·F_p, the catch on the way out.
-double charged_snap_force(const ChargedMaterialDef& mat, double z, double sphere_of_influence) noexcept;
+// The snap (N, ≥ 0): the pull of a new hole's reversed charges on the tool, along the needle into
+// the tissue, `age` (s) after the puncture: once the layer has given way (puncture_time τ), a C¹
+// bump snap_share·F_p·16 x²(1 − x)², x = age/τ − 1, over the next τ; 0 outside (τ, 2τ).
+double charged_snap_force(const ChargedMaterialDef& mat, double age) noexcept;
 // The track's centring force magnitude (N) for a shaft `offset` (m) off the track's line:
 // F_p·tanh(offset/R) — stiffness F_p/R at the line, saturating at the puncture force. C¹, odd.
 double charged_track_force(const ChargedMaterialDef& mat, double offset, double sphere_of_influence) noexcept;

@@ -17,8 +17,8 @@ struct ChargedMaterialDef {
   double max_separation = 0.0;         // m, absolute neighbour distance limit; 0 = from max_strain
   double puncture_force = 1.5;         // N, contact force at max_displacement: a needle punctures
   double linear_share = 0.3;           // share of the linear term at puncture (Okamura a1·x + a2·x²)
-  double snap_share = 0.08;            // peak snap / exit catch of the reversed charges, × puncture_force
-  double puncture_time = 0.025;        // s, the layer gives way over this time after a puncture
+  double snap_share = 0.08;            // peak snap of the reversed charges after a puncture, × puncture_force
+  double puncture_time = 0.025;        // s, the layer gives way over this time, then snaps over as long
   bool hole_closes = false;            // whether a puncture hole closes once the tool leaves
   double thickness = 0.003;            // m, the layer's depth below its surface (shaft length in it)
   double friction_per_length = 100.0;  // N/m, kinetic friction per metre of shaft inside the layer

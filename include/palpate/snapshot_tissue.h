@@ -48,6 +48,8 @@ class SnapshotTissue final : public Tissue {
   // Reads the inner state directly: only while nothing steps it (loop stopped).
   void snapshot(TissueSnapshot& snap) const override { inner_->snapshot(snap); }
   void reset() noexcept override { inner_->reset(); }
+  void set_layers_above(std::span<Tissue* const> above) override { inner_->set_layers_above(above); }
+  const ChargedLayer* charged_layer() const noexcept override { return inner_->charged_layer(); }
 
   // Render thread: ask for a fresh copy at the next step. Cheap; call every frame.
   void request() noexcept { wanted_.store(true, std::memory_order_release); }

@@ -13,6 +13,8 @@
 
 namespace palpate {
 
+struct ChargedLayer;  // palpate/charged.h
+
 // The tool as the tissues see it this tick. For a sphere probe `tip` is its centre; for a needle
 // it is the needle's tip and `axis` points from the handle to the tip.
 struct ToolState {
@@ -63,7 +65,17 @@ class Tissue {
   virtual void snapshot(TissueSnapshot& snap) const = 0;
   // Back to the rest state.
   virtual void reset() noexcept = 0;
+  // Layers stacked in a scene press on each other: a tissue may be pushed by the tissues listed
+  // before it (scenes list them from the outside in). `above` are those tissues, live; a model
+  // without the coupling ignores them. Not called while the haptic loop steps the tissues.
+  virtual void set_layers_above(std::span<Tissue* const> above) { (void)above; }
+  // This tissue as a charged-particle layer for that coupling, or null for other models.
+  virtual const ChargedLayer* charged_layer() const noexcept { return nullptr; }
 };
+
+// Tell every tissue which ones lie above it: tissues[i] is pressed by tissues[0 .. i-1]. Call it
+// after building the tissues and again after replacing one.
+void link_layers(std::span<Tissue* const> tissues);
 
 // Build the tissue a scene describes (loads meshes, precomputes what the model needs).
 // `index` is the tissue's place in the scene, used in events and messages.

@@ -33,6 +33,9 @@ Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options) {
     if (!t) return t.error();
     tissues.push_back(std::move(*t));
   }
+  std::vector<Tissue*> stack;
+  for (auto& t : tissues) stack.push_back(t.get());
+  link_layers(stack);  // stacked layers press on each other (scene order: outside in)
   return run_scene(scene, std::move(tissues), options);
 }
 

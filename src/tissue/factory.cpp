@@ -11,4 +11,9 @@ Result<std::unique_ptr<Tissue>> make_tissue(const SceneDef& scene, int index) {
                "': unknown model '" + t.model + "' (expected charged_particles or mass_spring)"};
 }
 
+void link_layers(std::span<Tissue* const> tissues) {
+  for (size_t i = 0; i < tissues.size(); ++i)
+    if (tissues[i]) tissues[i]->set_layers_above(tissues.first(i));
+}
+
 }  // namespace palpate

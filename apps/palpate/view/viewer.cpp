@@ -190,6 +190,7 @@ class Viewer {
   void draw_scene(int fb_width, int fb_height);
   void draw_panels();
   void finish_rebuild();
+  void relink_layers();  // stacked layers press on each other: tell each which lie above it
   std::optional<double> pick_surface(const Vec3& origin, const Vec3& dir) const;
   bool scripted_probe_step(int width, int height);
   bool take_screenshot(const std::filesystem::path& file, int fb_width, int fb_height);
@@ -278,10 +279,17 @@ int Viewer::build_tissues() {
     }
     tissues_.push_back(std::make_unique<SnapshotTissue>(std::move(*t)));
   }
+  relink_layers();
   views_.resize(tissues_.size());
   drawn_.assign(tissues_.size(), false);
   edits_ = scene_.tissues;
   return 0;
+}
+
+void Viewer::relink_layers() {
+  std::vector<Tissue*> stack;
+  for (auto& t : tissues_) stack.push_back(t.get());
+  link_layers(stack);
 }
 
 Status Viewer::start_loop() {
@@ -532,6 +540,7 @@ void Viewer::finish_rebuild() {
   // steps a tissue being replaced; forces ramp in again from zero when the loop restarts.
   stop_loop();
   tissues_[static_cast<size_t>(i)] = std::make_unique<SnapshotTissue>(std::move(*built));
+  relink_layers();  // the layers below held the old one: they press from the new one now
   views_[static_cast<size_t>(i)] = TissueView{};
   scene_.tissues[static_cast<size_t>(i)] = edits_[static_cast<size_t>(i)];
   Status started = start_loop();

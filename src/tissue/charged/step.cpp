@@ -20,8 +20,10 @@ constexpr double kPinnedFraction = 1 - 1e-4;  // |p - o| ≥ this · D counts as
 // Calls f(i) for every particle whose origin may lie within `rho` of h (a superset; callers test
 // exact distances). Generated lattices invert their (u, v) map, a mesh patch walks its cell grid;
 // either way the cost follows the ball's size, never the patch's.
+// `lateral`: ignore how far h lies off the surface and visit every site within rho of h's
+// projection onto it (lattices only; a mesh patch treats it as an ordinary query).
 template <class F>
-void for_each_candidate(const ChargedModel& m, const Vec3& h, double rho, F&& f) noexcept {
+void for_each_candidate(const ChargedModel& m, const Vec3& h, double rho, F&& f, bool lateral = false) noexcept {
   if (m.layout == ChargedLayout::mesh) {
     std::array<std::int64_t, 3> lo{}, hi{};
     for (int k = 0; k < 3; ++k) {
@@ -52,20 +54,20 @@ void for_each_candidate(const ChargedModel& m, const Vec3& h, double rho, F&& f)
   const Vec3 axis_point = m.center - a * m.normal;
   if (m.layout == ChargedLayout::flat) {
     const Vec3 d = h - m.center;
-    const double w = d.dot(m.normal);
+    const double w = lateral ? 0.0 : d.dot(m.normal);
     if (std::abs(w) >= rho) return;
     u = d.dot(m.tangent_u), v = d.dot(m.tangent_v);
     du = dv = std::sqrt(rho * rho - w * w);
   } else if (m.layout == ChargedLayout::cylinder) {
     const Vec3 w = h - axis_point;
-    const double x = w.dot(m.tangent_u), z = w.dot(m.normal), rh = std::hypot(x, z);
+    const double x = w.dot(m.tangent_u), z = w.dot(m.normal), rh = lateral ? a : std::hypot(x, z);
     if (std::abs(rh - a) >= rho) return;
     v = w.dot(m.tangent_v);
     const double arg = rh > 0 ? rho / (2 * std::sqrt(rh * a)) : 2.0;
     if (arg >= 1) full_u = true;
     else u = a * std::atan2(x, z), du = a * 2 * std::asin(arg);
   } else {  // sphere
-    const Vec3 w = h - axis_point;
+    const Vec3 w = lateral ? Vec3(a * (h - axis_point).normalized()) : Vec3(h - axis_point);
     const double rh = w.norm();
     if (std::abs(rh - a) >= rho) return;
     const double arg = rh > 0 ? rho / (2 * std::sqrt(rh * a)) : 2.0;
@@ -267,6 +269,45 @@ void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, double R, 
   });
 }
 
+// Stage 2b — the layers above press on this one (scene order lists layers from the outside in):
+// an active particle of a layer above that lies below this layer's rest surface pushes down, along
+// their normals, the particles of this layer within ρ of it sideways that are above it, to its
+// level (within max_displacement). So a layer pushed down pushes the one below instead of passing
+// through it; the separation rule then spreads the push. Holes (reversed particles) are not pushed.
+// Generated lattices only (their sideways search costs a few sites per particle).
+void press_from_above(const ChargedModel& m, ChargedState& s, std::span<const ChargedLayer> above,
+                      size_t& q_tail) noexcept {
+  if (m.layout == ChargedLayout::mesh) return;
+  const double D = m.material.max_displacement;
+  for (const ChargedLayer& layer : above) {
+    if (!layer.model || !layer.state) continue;
+    const ChargedState& up = *layer.state;
+    const double rho = 0.6 * std::max(layer.model->spacing, m.spacing);
+    for (size_t a = 0; a < up.active_count; ++a) {
+      const Vec3 p = up.position(static_cast<size_t>(up.active[a]));
+      double dist = 0;
+      Vec3 n;
+      // Particles only ever move inward, so one above the rest surface is above them all.
+      if (!rest_surface(m, p, 0.0, dist, n) || dist >= 0) continue;
+      for_each_candidate(m, p, rho, [&](int j) {
+        const auto k = static_cast<size_t>(j);
+        if (s.flags[k] & kReversed) return;
+        const Vec3 nj = m.particle_normal(k).normalized();
+        const Vec3 e = p - s.position(k);
+        const double height = e.dot(nj);
+        if (height >= 0 || (e - height * nj).squaredNorm() >= rho * rho) return;
+        const Vec3 o = m.origin(k);
+        Vec3 target = s.position(k) + height * nj;
+        const Vec3 d = target - o;
+        const double dl = d.norm();
+        if (dl > D) target = o + d * (D / dl);
+        set_position(s, j, target);
+        touch(s, j, q_tail);
+      }, true);
+    }
+  }
+}
+
 // Stage 3 — propagation (ChainMail, Gibson 1997): a moved particle drags each neighbour that now
 // violates max_separation just far enough to satisfy it, keeping the neighbour within its own
 // max_displacement; the neighbour is queued in turn. Only disturbed particles are visited.
@@ -317,13 +358,12 @@ void propagation(const ChargedModel& m, ChargedState& s, size_t q_head, size_t q
   }
 }
 
-// Stage 4 — relaxation: every displaced particle returns toward its origin,
+// Stage 2 — relaxation: every displaced particle returns toward its origin,
 // p ← o + (p − o)·exp(−λ·dt), the exact solution of dp/dt = −λ (p − o) over the tick. The same
 // factor for all keeps every neighbour pair within max_separation (a convex combination).
 void relaxation(const ChargedModel& m, ChargedState& s, double dt) noexcept {
   const double alpha = std::exp(-m.material.elasticity * dt);
   const double settle2 = (1e-4 * m.spacing) * (1e-4 * m.spacing);
-  double max_d2 = 0;
   for (size_t a = 0; a < s.active_count;) {
     const int i = s.active[a];
     const auto k = static_cast<size_t>(i);
@@ -338,10 +378,8 @@ void relaxation(const ChargedModel& m, ChargedState& s, double dt) noexcept {
       s.active[a] = s.active[--s.active_count];
       continue;
     }
-    max_d2 = std::max(max_d2, (s.position(k) - o).squaredNorm());
     ++a;
   }
-  s.stats.max_displacement = std::sqrt(max_d2);
 }
 
 }  // namespace
@@ -355,9 +393,10 @@ double charged_contact_force(const ChargedMaterialDef& mat, double delta) noexce
   return a1 * psi + a2 * delta * delta;
 }
 
-double charged_snap_force(const ChargedMaterialDef& mat, double z, double R) noexcept {
-  if (!(R > 0) || !(z > 0) || !(z < R)) return 0.0;
-  const double x = z / R, b = x * (1 - x);
+double charged_snap_force(const ChargedMaterialDef& mat, double age) noexcept {
+  const double tau = mat.puncture_time;
+  if (!(tau > 0) || !(age > tau) || !(age < 2 * tau)) return 0.0;
+  const double x = age / tau - 1, b = x * (1 - x);
   return mat.snap_share * mat.puncture_force * 16 * b * b;
 }
 
@@ -366,7 +405,8 @@ double charged_track_force(const ChargedMaterialDef& mat, double offset, double 
   return mat.puncture_force * std::tanh(offset / R);
 }
 
-Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double dt, int tissue) noexcept {
+Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double dt, int tissue,
+          std::span<const ChargedLayer> above) noexcept {
   s.stats.contacts = s.stats.pinned = 0;
   s.stats.propagation_visits = s.stats.propagation_moves = s.stats.candidates = 0;
   s.stats.indentation = s.stats.shaft_in_layer = 0;
@@ -387,13 +427,22 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
 
   // 1. HIP update.
   const bool in_track = update_tracks(m, s, h, tail, R, tissue);
-  // 2. Repulsion (a tool inside a hole's track passes through: the patch does not push it).
+  // 2. Relaxation: first, so that what pushes this tick (the tool, the layers above) has the last
+  // word — contact particles end the tick on the tool's sphere, pressed ones under the layer above.
+  relaxation(m, s, dt);
+  // 3. Repulsion (a tool inside a hole's track passes through: the patch does not push it).
   size_t q_tail = 0;
   if (!in_track) repulsion(m, s, h, R, q_tail);
-  // 3. Propagation.
+  // 3b. The layers above press on this one.
+  press_from_above(m, s, above, q_tail);
+  // 4. Propagation.
   propagation(m, s, 0, q_tail);
-  // 4. Relaxation.
-  relaxation(m, s, dt);
+  double max_d2 = 0;
+  for (size_t a = 0; a < s.active_count; ++a) {
+    const auto k = static_cast<size_t>(s.active[a]);
+    max_d2 = std::max(max_d2, (s.position(k) - m.origin(k)).squaredNorm());
+  }
+  s.stats.max_displacement = std::sqrt(max_d2);
 
   // 5. Force on the HIP.
   Vec3 force = Vec3::Zero();
@@ -441,7 +490,7 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
       }
     }
     // Figures: particles in the sphere of influence, and those at maximum displacement.
-    const double pinned_at = kPinnedFraction * D * std::exp(-mat.elasticity * dt);
+    const double pinned_at = kPinnedFraction * D;
     for_each_candidate(m, h, R + D, [&](int i) {
       const auto k = static_cast<size_t>(i);
       if (s.flags[k] & kReversed) return;
@@ -457,8 +506,6 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
     // travel, not the tick; a reversal moves the friction smoothly through zero over ~z0.
     for (ChargedHole& hole : s.holes) {
       if (!hole.in_track) continue;
-      // The snap: the reversed charges pull the tip on along the needle just past the hole.
-      force += charged_snap_force(mat, (h - hole.center).dot(hole.axis), R) * axis;
       // Centring: the shaft point nearest the hole's centre is pulled back toward the track's line.
       Vec3 q;
       segment_distance(tail, h, hole.center, q);
@@ -479,13 +526,14 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
       force -= mat.friction_per_length * length * (hole.bristle / z0) * axis;
     }
   }
-  // The give: the force at the last puncture falls to zero over puncture_time (smoothstep, C¹),
-  // as the torn layer lets go: the pop a hand feels, no faster than a device can render it.
-  if (s.give_age < mat.puncture_time) {
-    if (mat.puncture_time > 0) {
-      const double x = s.give_age / mat.puncture_time;
-      force += s.give * (1 - x * x * (3 - 2 * x));
-    }
+  // The pop: the force at the last puncture falls to zero over puncture_time (smoothstep, C¹) as
+  // the torn layer lets go — no faster than a device can render it — then the hole's reversed
+  // charges pull the tool on into the tissue over the next puncture_time: the seed's snap.
+  const double tau = mat.puncture_time;
+  if (tau > 0 && s.give_age < 2 * tau) {
+    const double x = s.give_age / tau;
+    if (x < 1) force += s.give * (1 - x * x * (3 - 2 * x));
+    if (mat.puncture_force > 0) force += charged_snap_force(mat, s.give_age) * (s.give.norm() / mat.puncture_force) * axis;
     s.give_age += dt;
   }
   if (!force.allFinite()) {

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <string>
+#include <vector>
 
 namespace palpate {
 
@@ -31,7 +32,7 @@ class ChargedTissue final : public Tissue {
     // only a needle punctures.
     hip.radius = tool.radius;
     hip.sharp = tool.needle;
-    return palpate::step(model_, state_, hip, dt, index_);
+    return palpate::step(model_, state_, hip, dt, index_, above_);
   }
 
   std::span<const std::string> figure_names() const override { return kFigureNames; }
@@ -77,6 +78,14 @@ class ChargedTissue final : public Tissue {
 
   void reset() noexcept override { palpate::reset(model_, state_); }
 
+  void set_layers_above(std::span<Tissue* const> above) override {
+    above_.clear();
+    for (Tissue* t : above)
+      if (const ChargedLayer* layer = t ? t->charged_layer() : nullptr) above_.push_back(*layer);
+  }
+
+  const ChargedLayer* charged_layer() const noexcept override { return &self_; }
+
  private:
   static inline const std::string kFigureNames[] = {
       "force_N", "max_displacement_m", "active_particles", "contact_particles",
@@ -86,6 +95,8 @@ class ChargedTissue final : public Tissue {
   int index_;
   ChargedModel model_;
   ChargedState state_;
+  ChargedLayer self_{&model_, &state_};
+  std::vector<ChargedLayer> above_;  // the charged layers that press on this one (set_layers_above)
 };
 
 }  // namespace
