@@ -224,3 +224,35 @@ TEST(ChargedMesh, NonManifoldAndBadIndicesAreClearErrors) {
   ASSERT_FALSE(nm.ok());
   EXPECT_EQ(nm.error().message.rfind("organ.obj: the surface is not an oriented manifold", 0), 0u) << nm.error().message;
 }
+
+// A needle pressed into a patch laid on a curved mesh: the force–depth curve is the same at
+// particle spacings of 1 and 2 mm (the indentation is measured against the surface the particles
+// sample, not counted in particles), and the puncture comes at the material's force.
+TEST(ChargedMesh, ForceDepthOnACurvedMeshIsTheSameAtEverySpacing) {
+  const SurfaceMesh sphere = icosphere(0.02, 4);
+  const Vec3 dir = Vec3(0.31, 1.0, 0.17).normalized();  // between vertices
+  std::vector<std::vector<double>> curves;
+  for (double spacing : {0.001, 0.002}) {
+    ChargedMaterialDef mat;
+    mat.mesh_spacing = spacing, mat.puncture_force = 0.8, mat.max_displacement = 0.004;
+    auto m = build_charged_on_mesh(sphere, mat, "icosphere");
+    ASSERT_TRUE(m.ok()) << m.error().message;
+    ChargedState s = make_charged_state(*m);
+    ChargedHip needle;
+    needle.axis = -dir, needle.radius = 0.0004, needle.shaft_length = 0.03;
+    std::vector<double> f;
+    double puncture = -1;
+    for (int t = 0; t < 4000 && puncture < 0; ++t) {
+      needle.position = dir * (0.02 + 0.003 - t * 2e-6);
+      f.push_back(step(*m, s, needle, 0.001).dot(dir));
+      TissueEvent ev[4];
+      if (drain_events(s, ev) > 0) puncture = ev[0].force;
+    }
+    EXPECT_NEAR(puncture, mat.puncture_force, 0.05 * mat.puncture_force) << "spacing " << spacing;
+    curves.push_back(f);
+  }
+  const size_t n = std::min(curves[0].size(), curves[1].size());
+  EXPECT_GT(n, 0.95 * std::max(curves[0].size(), curves[1].size()));
+  for (size_t k = 0; k + 1 < n; ++k)  // up to the puncture
+    ASSERT_NEAR(curves[1][k], curves[0][k], 0.1 * curves[0][k] + 1e-3) << "tick " << k;
+}

@@ -662,3 +662,56 @@ TEST(ChargedStep, ALayerPushedDownPushesTheLayerBelowInsteadOfPassingThrough) {
     }
   }
 }
+
+// Tilting the needle mid-insertion: the shaft leaves the skin's track, which pushes it back with
+// the track's law; pushed on along the new axis, the needle punctures the next layer on its new
+// line (the track moved). A Touch renders this as the force at the tip, without torque.
+TEST(ChargedStep, TiltingTheNeedleMidInsertionPushesBackSidewaysAndMovesTheTrack) {
+  ChargedMaterialDef skin_mat, wall_mat;
+  wall_mat.puncture_force = 0.8;
+  const ChargedModel skin = flat(0.03, 0.001, skin_mat, 0.0), wall = flat(0.03, 0.001, wall_mat, -0.012);
+  ChargedState ss = make_charged_state(skin), sw = make_charged_state(wall);
+  const ChargedLayer above[] = {{&skin, &ss}};
+  ChargedHip needle;
+  needle.radius = 0.0004, needle.shaft_length = 0.05;
+  const Vec3 x0(0.0002, 0, 0.0001);
+  const double v = 0.01, dt = kDt;
+  auto tick = [&](const Vec3& tip, const Vec3& axis, const Vec3& vel) {
+    needle.position = tip, needle.axis = axis, needle.velocity = vel;
+    return Vec3(step(skin, ss, needle, dt, 0) + step(wall, sw, needle, dt, 1, above));
+  };
+  // Straight down through the skin to 7 mm below it (the wall's contact starts at 10.5 mm).
+  Vec3 tip = x0 + Vec3(0, 0.004, 0);
+  while (tip.y() > -0.007) tip.y() -= v * dt, tick(tip, Vec3(0, -1, 0), Vec3(0, -v, 0));
+  ASSERT_TRUE(ss.holes[0].open);
+  ASSERT_FALSE(sw.holes[0].open);
+  const ChargedHole hole = ss.holes[0];
+  // Tilt by 10° about the tip, held still, over 100 ms.
+  const double theta = 10 * 3.14159265358979 / 180;
+  Vec3 axis;
+  Vec3 f;
+  for (int k = 1; k <= 100; ++k) {
+    const double a = theta * k / 100;
+    axis = Vec3(std::sin(a), -std::cos(a), 0);
+    f = tick(tip, axis, Vec3::Zero());
+  }
+  // Expected: F_p·tanh(e/R) back toward the track's line, e the shaft's offset from it at the hole;
+  // the rest of the force (friction, held by the still needle) is along the needle.
+  const Vec3 tail = tip - axis * needle.shaft_length, ab = tip - tail;
+  const double s = std::clamp((hole.center - tail).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+  Vec3 e = tail + s * ab - hole.center;
+  e -= e.dot(hole.axis) * hole.axis;
+  const double R = needle.radius + skin_mat.particle_radius;
+  const Vec3 lateral = -skin_mat.puncture_force * std::tanh(e.norm() / R) * e.normalized();
+  EXPECT_GT(lateral.norm(), 0.5) << "a 10° tilt 3.5 mm below the hole moves the shaft off its track";
+  EXPECT_GT(lateral.x(), 0.0) << "the handle swung to −x: pushed back toward +x, to the track";
+  EXPECT_LT((f - lateral).cross(axis).norm(), 1e-9) << "f " << f.transpose() << " expected lateral " << lateral.transpose();
+  // On along the new axis: the wall is punctured on the new line, off the old one.
+  for (int k = 0; k < 2000 && !sw.holes[0].open; ++k) tip += v * dt * axis, tick(tip, axis, v * axis);
+  ASSERT_TRUE(sw.holes[0].open);
+  const Vec3 c = sw.holes[0].center;
+  EXPECT_LT(((c - tip) - (c - tip).dot(axis) * axis).norm(), 1e-9) << "on the new line";
+  EXPECT_GT(std::hypot(c.x() - x0.x(), c.z() - x0.z()), 0.0008) << "off the old line";
+  EXPECT_LT(sw.holes[0].axis.dot(axis), 1.0 + 1e-12);
+  EXPECT_NEAR(sw.holes[0].axis.dot(axis), 1.0, 1e-12) << "the new track runs along the tilted needle";
+}

@@ -33,9 +33,6 @@ Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options) {
     if (!t) return t.error();
     tissues.push_back(std::move(*t));
   }
-  std::vector<Tissue*> stack;
-  for (auto& t : tissues) stack.push_back(t.get());
-  link_layers(stack);  // stacked layers press on each other (scene order: outside in)
   return run_scene(scene, std::move(tissues), options);
 }
 
@@ -44,6 +41,11 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   namespace fs = std::filesystem;
 
   // --- build: everything that allocates or reads files happens here, before the first tick.
+  {
+    std::vector<Tissue*> stack;
+    for (auto& t : tissues) stack.push_back(t.get());
+    link_layers(stack);  // stacked layers press on each other (scene order: outside in)
+  }
   auto device = make_device(scene);
   if (!device) return device.error();
   Device& dev = **device;

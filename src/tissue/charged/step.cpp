@@ -153,7 +153,7 @@ void touch(ChargedState& s, int i, size_t& q_tail) noexcept {
 
 // The rest surface under the HIP: signed distance of h above it (m, along the outward normal) and
 // that normal. Generated patches use their exact shape; a mesh patch a smooth kernel-weighted mean
-// of the tangent planes at the particles' origins near h (weights (1 − r²/ρ²)², C¹ in h).
+// of the tangent planes at the particles' origins near h (C¹ in h; below).
 // False when h is not over the patch (beyond a lattice's edges, or no mesh particle within ρ).
 bool rest_surface(const ChargedModel& m, const Vec3& h, double rho, double& dist, Vec3& normal) noexcept {
   switch (m.layout) {
@@ -181,20 +181,30 @@ bool rest_surface(const ChargedModel& m, const Vec3& h, double rho, double& dist
     case ChargedLayout::mesh:
       break;
   }
+  // Mesh: the particles' tangent planes, weighted by how close h's foot point is to each particle
+  // sideways (ℓ, support 1.5 spacings: at least one particle under any point of the surface, and a
+  // curvature error of only κ·ℓ²/2) and by their distance (support rho, which keeps the far side
+  // of a thin or closed surface out). Both weights (1 − x²)², so the estimate is C¹ in h.
+  // The curvature's second-order term is removed too: on a surface bending away by κℓ²/2 over a
+  // sideways offset ℓ, the particle's normal is tilted by κℓ from h's, so adding half the offset's
+  // component along the mean normal, (ℓ⃗·n̄)/2, cancels it (exact to second order on a sphere).
   double wsum = 0, dsum = 0;
-  Vec3 nsum = Vec3::Zero();
-  const double rho2 = rho * rho;
+  Vec3 nsum = Vec3::Zero(), lsum = Vec3::Zero();
+  const double rho2 = rho * rho, lat2 = (1.5 * m.spacing) * (1.5 * m.spacing);
   for_each_candidate(m, h, rho, [&](int i) {
     const auto k = static_cast<size_t>(i);
     const Vec3 d = h - m.origin(k);
     const double r2 = d.squaredNorm();
     if (r2 >= rho2) return;
-    const double a = 1 - r2 / rho2, w = a * a;
-    const Vec3 n = m.particle_normal(k);
-    wsum += w, dsum += w * d.dot(n), nsum += w * n;
+    const Vec3 n = m.particle_normal(k).normalized();
+    const double height = d.dot(n), l2 = (d - height * n).squaredNorm();
+    if (l2 >= lat2) return;
+    const double a = 1 - r2 / rho2, b = 1 - l2 / lat2, w = a * a * b * b;
+    wsum += w, dsum += w * height, nsum += w * n, lsum += w * (d - height * n);
   });
   if (!(wsum > 0) || !(nsum.norm() > 0)) return false;
-  dist = dsum / wsum, normal = nsum.normalized();
+  normal = nsum.normalized();
+  dist = (dsum + 0.5 * lsum.dot(normal)) / wsum;
   return true;
 }
 
@@ -453,7 +463,7 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
     // Contact: the law Φ of the indentation δ = R − (height of h above the rest surface), along
     // the surface's outward normal. δ measures the tool against the surface the particles sample,
     // so it is the same at any spacing, and a function of the tool's position alone (any dt).
-    const double reach = R + D + 2 * m.spacing;
+    const double reach = R + D + 3 * m.spacing;
     if (!rest_surface(m, h, reach, dist, normal)) {
       s.engaged = false;
     } else {
