@@ -715,3 +715,31 @@ TEST(ChargedStep, TiltingTheNeedleMidInsertionPushesBackSidewaysAndMovesTheTrack
   EXPECT_LT(sw.holes[0].axis.dot(axis), 1.0 + 1e-12);
   EXPECT_NEAR(sw.holes[0].axis.dot(axis), 1.0, 1e-12) << "the new track runs along the tilted needle";
 }
+
+// The seed's sphere of influence: the tool's radius plus the particle radius. A thicker tool meets
+// the tissue earlier (by the difference in radius) and, at the same position, feels larger.
+TEST(ChargedStep, AThickerToolMeetsTheTissueEarlierAndFeelsLarger) {
+  ChargedMaterialDef mat;
+  mat.puncture_force = 20;  // no puncture on this path
+  const ChargedModel m = flat(0.03, 0.001, mat);
+  std::vector<double> first_contact, force_at_2mm;
+  for (double radius : {0.0004, 0.003}) {
+    ChargedState s = make_charged_state(m);
+    ChargedHip probe;
+    probe.radius = radius, probe.sharp = false;
+    double contact_y = 0, f2 = 0;
+    for (double y = 0.01; y > -0.002; y -= 1e-6) {
+      probe.position = Vec3(0.0002, y, 0.0001);
+      const double f = step(m, s, probe, kDt).y();
+      if (f > 0 && contact_y == 0) contact_y = y;
+      if (std::abs(y - 0.002) < 5e-7) f2 = f;
+    }
+    first_contact.push_back(contact_y);
+    force_at_2mm.push_back(f2);
+    EXPECT_NEAR(contact_y, radius + mat.particle_radius, 2e-6) << radius;
+  }
+  EXPECT_NEAR(first_contact[1] - first_contact[0], 0.003 - 0.0004, 3e-6);
+  EXPECT_EQ(force_at_2mm[0], 0.0) << "a thin needle 2 mm above the skin does not touch it";
+  EXPECT_GT(force_at_2mm[1], 0.0);
+  EXPECT_NEAR(force_at_2mm[1], charged_contact_force(mat, 0.003 + mat.particle_radius - 0.002), 1e-6);
+}
