@@ -743,3 +743,45 @@ TEST(ChargedStep, AThickerToolMeetsTheTissueEarlierAndFeelsLarger) {
   EXPECT_GT(force_at_2mm[1], 0.0);
   EXPECT_NEAR(force_at_2mm[1], charged_contact_force(mat, 0.003 + mat.particle_radius - 0.002), 1e-6);
 }
+
+// A vessel: a two-sided tube wall. A needle straight through it punctures the anterior wall from
+// outside, crosses the lumen without resistance, is pushed back by the posterior wall from inside
+// and punctures it too — each at the wall's puncture force.
+TEST(ChargedStep, ATwoSidedVesselWallIsPuncturedInThenOut) {
+  ChargedMaterialDef wall;
+  wall.max_displacement = 0.002, wall.puncture_force = 0.8, wall.two_sided = true, wall.thickness = 0.0008;
+  PatchDef tube;
+  tube.shape = "cylinder", tube.radius = 0.006, tube.width = 0.95 * 2 * 3.14159265358979 * 0.006;
+  // Axis along z through the origin; the patch's seam (5 % of the circumference) at the lower left,
+  // away from the needle's path.
+  tube.normal = Vec3(1, 1, 0).normalized();
+  tube.height = 0.03, tube.spacing = 0.0005, tube.center = 0.006 * tube.normal;
+  auto built = build_charged_patch(tube, wall);
+  ASSERT_TRUE(built.ok()) << built.error().message;
+  const ChargedModel& m = *built;  // walls at y = +6 mm and y = −6 mm above and below the axis
+  ChargedState s = make_charged_state(m);
+  ChargedHip needle;
+  needle.radius = 0.00065, needle.shaft_length = 0.06, needle.velocity = Vec3(0, -0.01, 0);
+  std::vector<TissueEvent> punctures;
+  std::vector<std::pair<double, double>> fy;  // (tip y, force y)
+  for (double y = 0.01; y > -0.011; y -= 1e-5) {
+    needle.position = Vec3(0.0002, y, 0.0003);
+    fy.push_back({y, step(m, s, needle, kDt).y()});
+    TissueEvent ev[4];
+    for (size_t n = drain_events(s, ev), j = 0; j < n; ++j)
+      if (std::strcmp(ev[j].kind, "puncture") == 0) punctures.push_back(ev[j]);
+  }
+  ASSERT_EQ(punctures.size(), 2u) << "anterior, then posterior wall";
+  for (const TissueEvent& e : punctures) EXPECT_NEAR(e.force, wall.puncture_force, 0.01 * wall.puncture_force);
+  const double R = needle.radius + wall.particle_radius;
+  EXPECT_NEAR(punctures[0].depth, wall.max_displacement - R, 2e-5);  // below the anterior wall
+  EXPECT_NEAR(punctures[1].depth, wall.max_displacement - R, 2e-5);  // past the posterior wall, outward
+  // In the lumen's middle nothing pushes sideways or back but the friction of the anterior wall.
+  for (auto [y, f] : fy)
+    if (std::abs(y) < 0.002) ASSERT_LE(std::abs(f), wall.friction_per_length * wall.thickness * 1.001) << y;
+  // The posterior wall pushes back (up, against the needle) before it gives, and rises to F_p.
+  double back = 0;
+  for (auto [y, f] : fy)
+    if (y < -0.004 && y > -(0.006 - R + wall.max_displacement) + 2e-5) back = std::max(back, f);
+  EXPECT_GT(back, 0.9 * wall.puncture_force);
+}

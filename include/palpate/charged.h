@@ -108,7 +108,8 @@ struct ChargedState {
   double contact_peak = 0;            // N, largest |force| since the HIP last came into contact
   Vec3 give = Vec3::Zero();           // N, the contact force at the last puncture, falling away
   double give_age = 0;                // s since that puncture (≥ puncture_time: given way)
-  bool engaged = false;               // the tool presses the surface from outside (contact held)
+  bool engaged = false;               // the tool presses the surface (contact held)
+  std::int8_t side = 1;               // +1: from the outer side; −1: from inside (two_sided layers)
   ChargedStepStats stats;
   std::array<TissueEvent, kChargedEventCapacity> events{};  // ring of undrained events
   size_t event_head = 0, event_count = 0;

@@ -20,6 +20,7 @@ struct ChargedMaterialDef {
   double snap_share = 0.08;            // peak snap of the reversed charges after a puncture, × puncture_force
   double puncture_time = 0.025;        // s, the layer gives way over this time, then snaps over as long
   bool hole_closes = false;            // whether a puncture hole closes once the tool leaves
+  bool two_sided = false;              // met from inside too (a vessel wall: punctured in, then out)
   double thickness = 0.003;            // m, the layer's depth below its surface (shaft length in it)
   double friction_per_length = 100.0;  // N/m, kinetic friction per metre of shaft inside the layer
   double friction_presliding = 0.0003; // m, shaft travel over which friction builds (Dahl model)

@@ -350,6 +350,7 @@ void reset(const ChargedModel& model, ChargedState& s) noexcept {
   s.give = Vec3::Zero();
   s.give_age = 0;
   s.engaged = false;
+  s.side = 1;
   const long resets = s.stats.numeric_resets;
   s.stats = ChargedStepStats{};
   s.stats.numeric_resets = resets;

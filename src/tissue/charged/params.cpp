@@ -25,6 +25,8 @@ std::span<const Param<ChargedMaterialDef>> param_table(const ChargedMaterialDef*
       {"puncture_time", &D::puncture_time, 0.0, 1.0, "s",
        "time over which the force at puncture falls away as the layer gives (smoothstep); the snap takes as long"},
       {"hole_closes", &D::hole_closes, 0, 1, "", "whether a puncture hole closes after the tool leaves"},
+      {"two_sided", &D::two_sided, 0, 1, "",
+       "whether the layer is also met from inside (a vessel wall: the needle punctures it in, then out)"},
       {"thickness", &D::thickness, 1e-6, 1.0, "m",
        "depth of the layer below its surface: the shaft length in it that friction acts on"},
       {"friction_per_length", &D::friction_per_length, 0.0, 1e5, "N/m",

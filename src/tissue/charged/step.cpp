@@ -214,10 +214,13 @@ bool rest_surface(const ChargedModel& m, const Vec3& h, double rho, double& dist
 // track meets no resistance), and stays in it while the shaft passes within R + D of the hole's
 // centre and the tip is less than R above the surface (leaving sideways tears out; leaving
 // outward is clear of any contact, so the patch's force resumes from zero).
+// Returns whether the tool is in any track; `near`: whether its tip is within R + D of the centre
+// of a hole it is in (there the patch neither pushes nor is pushed: the tool passes through).
 bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, const Vec3& tail, double R,
-                   int tissue) noexcept {
+                   int tissue, bool& near) noexcept {
   const double D = m.material.max_displacement;
   bool any = false;
+  near = false;
   for (ChargedHole& hole : s.holes) {
     if (!hole.open) continue;
     const double height = (tip - hole.surface).dot(hole.normal);
@@ -245,6 +248,7 @@ bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, cons
     }
     hole.in_track = now && hole.open;
     any = any || hole.in_track;
+    near = near || (hole.in_track && (tip - hole.center).squaredNorm() < (R + D) * (R + D));
   }
   return any;
 }
@@ -254,7 +258,10 @@ bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, cons
 // max_displacement from its origin. Pushing along the normal (not radially, and always inward:
 // the tool comes from the outer side) keeps particles from sliding around or over the HIP, so a
 // tool cannot slip through or under the patch without puncturing it.
-void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, double R, size_t& q_tail) noexcept {
+// `side`: +1 for a tool on the outer side, −1 for one inside a two-sided layer (a vessel's lumen):
+// particles are then pushed outward.
+void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, double R, double side,
+               size_t& q_tail) noexcept {
   const double D = m.material.max_displacement;
   for_each_candidate(m, h, R + D, [&](int i) {
     const auto k = static_cast<size_t>(i);
@@ -265,7 +272,7 @@ void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, double R, 
     const double r2 = d.squaredNorm();
     if (r2 >= R * R) return;
     // |d - t n|² = R²  →  t = d·n + √((d·n)² − |d|² + R²) > 0, the exit on the inner side.
-    const Vec3 n = m.particle_normal(k).normalized();
+    const Vec3 n = side * m.particle_normal(k).normalized();
     const double dn = d.dot(n), t = dn + std::sqrt(dn * dn - r2 + R * R);
     const Vec3 o = m.origin(k);
     Vec3 target = p - t * n;
@@ -436,13 +443,23 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
   const Vec3 tail = h - axis * std::max(0.0, hip.shaft_length);
 
   // 1. HIP update.
-  const bool in_track = update_tracks(m, s, h, tail, R, tissue);
+  bool near_hole = false;
+  const bool in_track = update_tracks(m, s, h, tail, R, tissue, near_hole);
   // 2. Relaxation: first, so that what pushes this tick (the tool, the layers above) has the last
   // word — contact particles end the tick on the tool's sphere, pressed ones under the layer above.
   relaxation(m, s, dt);
+  // Where the tool is against the rest surface, and from which side: a two-sided layer (a vessel
+  // wall) is met from inside too, its side fixed while the contact lasts.
+  const double reach = R + D + 3 * m.spacing;
+  double dist = 0;
+  Vec3 normal = Vec3::Zero();
+  const bool over = rest_surface(m, h, reach, dist, normal);
+  if (over && mat.two_sided && !s.engaged) s.side = dist >= 0 ? 1 : -1;
+  if (!mat.two_sided) s.side = 1;
+  dist *= s.side, normal *= s.side;
   // 3. Repulsion (a tool inside a hole's track passes through: the patch does not push it).
   size_t q_tail = 0;
-  if (!in_track) repulsion(m, s, h, R, q_tail);
+  if (!near_hole) repulsion(m, s, h, R, s.side, q_tail);
   // 3b. The layers above press on this one.
   press_from_above(m, s, above, q_tail);
   // 4. Propagation.
@@ -456,15 +473,15 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
 
   // 5. Force on the HIP.
   Vec3 force = Vec3::Zero();
-  double dist = 0;
-  Vec3 normal = Vec3::Zero();
   bool contact = false;
-  if (!in_track) {
+  double contact_force = 0;  // N, |the contact law's force| this tick (the track's forces apart)
+  if (near_hole) s.engaged = false;
+  if (!near_hole) {
     // Contact: the law Φ of the indentation δ = R − (height of h above the rest surface), along
-    // the surface's outward normal. δ measures the tool against the surface the particles sample,
-    // so it is the same at any spacing, and a function of the tool's position alone (any dt).
-    const double reach = R + D + 3 * m.spacing;
-    if (!rest_surface(m, h, reach, dist, normal)) {
+    // the surface's normal on the tool's side. δ measures the tool against the surface the
+    // particles sample, so it is the same at any spacing, and a function of the tool's position
+    // alone (any dt).
+    if (!over) {
       s.engaged = false;
     } else {
       const double delta = R - dist;
@@ -479,6 +496,7 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
         // the force of this tick is the law's value there, not past it (a tool that jumped deep).
         const bool puncture = hip.sharp && delta >= D;
         force = charged_contact_force(mat, puncture ? D : delta) * normal;
+        contact_force = force.norm();
         if (puncture) {
           ChargedHole& hole = s.holes[static_cast<size_t>(s.next_hole)];
           s.next_hole = (s.next_hole + 1) % kChargedMaxHoles;
@@ -508,7 +526,8 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
       ++s.stats.contacts;
       if ((s.position(k) - m.origin(k)).norm() >= pinned_at) ++s.stats.pinned;
     });
-  } else {
+  }
+  if (in_track) {
     const double v_axial = hip.velocity.dot(axis);
     const double T = mat.thickness, z0 = mat.friction_presliding;
     // Dahl's bristle over this tick's axial travel x = v·dt, solved exactly for constant v:
@@ -552,7 +571,7 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
     push_event(s, TissueEvent{s.time, "reset", tissue, 0.0, 0.0});
     return Vec3::Zero();
   }
-  s.contact_peak = contact ? std::max(s.contact_peak, force.norm()) : 0.0;
+  s.contact_peak = contact ? std::max(s.contact_peak, contact_force) : 0.0;
   s.force = force;
   return force;
 }
