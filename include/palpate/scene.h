@@ -74,6 +74,7 @@ struct MeshRef {
 struct TissueDef {
   std::string name;
   std::string model = "charged_particles";  // charged_particles | mass_spring
+  std::string role = "tissue";             // tissue | skin | fat | muscle | vein | artery | organ
   std::optional<PatchDef> patch;           // exactly one of patch and mesh
   std::optional<MeshRef> mesh;
   ChargedMaterialDef charged;              // used when model == charged_particles

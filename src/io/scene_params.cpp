@@ -84,6 +84,9 @@ std::span<const Param<TissueDef>> param_table(const TissueDef*) {
       {"name", &D::name, 0, 0, "", "unique name of the tissue"},
       {"model", &D::model, 0, 0, "", "the tissue model; picks the `material` table",
        "charged_particles|mass_spring"},
+      {"role", &D::role, 0, 0, "",
+       "what the tissue is in the anatomy: the CVC outcome reads vein and artery walls (docs/cvc.md)",
+       "tissue|skin|fat|muscle|vein|artery|organ"},
   };
   return table;
 }
