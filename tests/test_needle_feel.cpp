@@ -216,7 +216,11 @@ TEST(NeedleFeel, TheShippedRunIsNeverRateLimitedWhileAFaultStillIs) {
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_EQ(r->safety.rate_limited, 0u);
   EXPECT_EQ(r->safety.clamped, 0u);
-  ASSERT_EQ(r->events.size(), 6u);  // three punctures in, three exits out
+  auto count = [&](const char* kind) {
+    return std::count_if(r->events.begin(), r->events.end(), [&](const RunEvent& e) { return e.kind == kind; });
+  };
+  EXPECT_EQ(count("puncture"), 3);  // three punctures in, three exits out
+  EXPECT_EQ(count("exit"), 3);
   // A fault: the device jumps 3 mm into the skin within one tick. The tissue's force jumps; the
   // safety filter limits its rate.
   SceneDef jump = scene;

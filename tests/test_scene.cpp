@@ -278,7 +278,7 @@ TEST(SceneErrors, UnknownKeySuggestsTheClosestAndListsValidKeys) {
   // Far from every key: no suggestion; section keys are listed with the table's.
   EXPECT_EQ(error_of(std::string("colour: red\n") + kOneTissue),
             "s.yaml:1: colour: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, "
-            "tissues");
+            "anatomy, tissues");
   EXPECT_EQ(error_of(std::string("tool: {radus: 0.002}\n") + kOneTissue).substr(0, 57),
             "s.yaml:1: tool.radus: unknown key (did you mean 'radius'?");
 }
@@ -293,7 +293,8 @@ TEST(SceneErrors, UnknownMaterialKeyOfTheOtherModelSaysSo) {
 }
 
 TEST(SceneErrors, MissingRequiredKeys) {
-  EXPECT_EQ(error_of("name: x\nduration: 2\n"), "s.yaml:1: missing required key 'tissues'");
+  EXPECT_EQ(error_of("name: x\nduration: 2\n"),
+            "s.yaml:1: tissues: missing; expected a list of tissues, or an 'anatomy' that generates them");
   EXPECT_EQ(error_of("tissues:\n  - model: mass_spring\n    patch: {}\n"),
             "s.yaml:2: tissues[0]: missing required key 'name'");
   EXPECT_EQ(error_of("tissues:\n  - name: a\n    mesh:\n      scale: 2\n"),
@@ -382,7 +383,8 @@ TEST(SceneErrors, EmptyFileAndNonMappingTopLevel) {
             "s.yaml:5: a second YAML document starts here; expected one scene per file");
   // A short key far from every valid one gets no suggestion.
   EXPECT_EQ(error_of(std::string("<<: {}\n") + kOneTissue),
-            "s.yaml:1: <<: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, tissues");
+            "s.yaml:1: <<: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, anatomy, "
+            "tissues");
   EXPECT_EQ(error_of("just text\n"),
             "s.yaml:1: expected a mapping of scene keys at the top level, got 'just text'");
 }
@@ -608,7 +610,9 @@ TEST(SceneReference, ListsEveryKeyWithItsDefault) {
   EXPECT_NE(md.find("| `name` | string |  | required |"), std::string::npos);
   EXPECT_NE(md.find("| `direction` | [x, y, z] |  | the previous waypoint's (`tool.axis` for the first) | [-1, 1] |"),
             std::string::npos);
-  EXPECT_NE(md.find("| `tissues` | list of mappings |  | required |"), std::string::npos);
+  EXPECT_NE(md.find("| `tissues` | list of mappings |  |  |  |  | the tissues (section `tissues[]`); at least one, or an "
+                    "`anatomy` |"),
+            std::string::npos);
   EXPECT_NE(md.find("| `hole_closes` | bool |  | `false` |"), std::string::npos);
   EXPECT_NE(md.find("| `width` | integer | pixels | `800` | [16, 16384] |"), std::string::npos);
   // Every key of every table appears as a row.

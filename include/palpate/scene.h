@@ -83,6 +83,27 @@ struct TissueDef {
   int line = 0;                            // line in the scene file, for messages
 };
 
+// A generated neck region for central venous catheter insertion (src/anatomy/neck.cpp, docs/cvc.md):
+// skin and subcutaneous fat on a curved neck surface, the internal jugular vein (IJV) and the common
+// carotid artery (CCA) as tubes. Coordinates: y up (anterior, patient supine), z along the neck,
+// x lateral (+) / medial (−); the skin's top is at the origin. Defaults are published figures.
+struct NeckDef {
+  std::string kind = "neck";
+  double neck_radius = 0.06;      // m, curvature of the skin across the neck (axis along z)
+  double width = 0.06;            // m, extent across the neck (x)
+  double length = 0.06;           // m, extent along the neck (z)
+  double skin_thickness = 0.0015; // m, epidermis + dermis, anterior neck (Lee & Hwang 2002)
+  double ijv_depth = 0.0114;      // m, skin to the IJV's anterior wall (Wenzel et al. 2022, median)
+  double ijv_diameter = 0.013;    // m (Thai CT 2013: right 14.9 ± 4.0 mm; Lee & Lee 2004: 14.2 mm)
+  double ijv_x = 0.0;             // m, lateral position of the IJV's axis
+  double cca_diameter = 0.0063;   // m (Krejza et al. 2006: 6.1 women, 6.5 men)
+  double cca_gap = 0.0013;        // m, between the two walls (Thai CT 2013: right 1.3 ± 0.6 mm)
+  double cca_angle = 20.0;        // degrees below medial: where the CCA lies seen from the IJV
+                                  //   (0 = beside it, medial; 90 = right under it)
+  double spacing = 0.001;         // m, particle spacing of skin and fat
+  double vessel_spacing = 0.0005; // m, particle spacing of the vessel walls
+};
+
 struct SceneDef {
   std::filesystem::path file;              // where it was read from ("" if from memory)
   std::string name = "scene";
@@ -92,6 +113,7 @@ struct SceneDef {
   ToolDef tool;
   DeviceDef device;
   std::optional<CameraDef> camera;
+  std::optional<NeckDef> anatomy;          // generated tissues come first in `tissues`
   std::vector<TissueDef> tissues;
 };
 
@@ -112,5 +134,6 @@ std::span<const Param<CameraDef>> param_table(const CameraDef*);
 std::span<const Param<PatchDef>> param_table(const PatchDef*);
 std::span<const Param<MeshRef>> param_table(const MeshRef*);
 std::span<const Param<SceneDef>> param_table(const SceneDef*);
+std::span<const Param<NeckDef>> param_table(const NeckDef*);
 
 }  // namespace palpate

@@ -27,9 +27,10 @@ inline constexpr SectionKey kSceneSections[] = {
     {"tool", "mapping", "the tool held through the device (section `tool`)"},
     {"device", "mapping", "the haptic device that moves the tool (section `device`)"},
     {"camera", "mapping", "optional viewpoint for drawing (section `camera`)"},
-    {"tissues", "list of mappings", "the tissues, at least one (section `tissues[]`)"},
+    {"anatomy", "mapping", "optional generated anatomy, a neck (section `anatomy`)"},
+    {"tissues", "list of mappings", "the tissues (section `tissues[]`); at least one, or an `anatomy`"},
 };
-inline constexpr const char* kSceneRequired[] = {"tissues"};
+// No key is required at the top level by the table: 'tissues' or 'anatomy' is checked by hand.
 
 inline constexpr SectionKey kDeviceSections[] = {
     {"waypoints", "list of mappings",

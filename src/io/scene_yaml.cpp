@@ -2,6 +2,7 @@
 // driven by the parameter tables, plus the checks that span keys (dt <= duration, patch vs mesh, ...).
 #include "io/scene_params.h"
 
+#include <palpate/anatomy.h>
 #include <palpate/scene.h>
 
 #include <yaml-cpp/yaml.h>
@@ -448,7 +449,7 @@ TissueDef parse_tissue(const Ctx& c, const YAML::Node& node, size_t index, int l
 
 SceneDef parse_root(const Ctx& c, const YAML::Node& root) {
   SceneDef s;
-  const Keys k = read_table(c, root, "", 1, "scene", s, kSceneSections, kSceneRequired);
+  const Keys k = read_table(c, root, "", 1, "scene", s, kSceneSections);
   if (s.dt > s.duration)
     c.fail(k.line_or("dt", k.line_or("duration", 1)), "dt",
            format_number(s.dt) + " s exceeds duration " + format_number(s.duration) + " s; expected dt <= duration");
@@ -461,9 +462,24 @@ SceneDef parse_root(const Ctx& c, const YAML::Node& root) {
   if (const auto n = k.sections.find("camera"); n != k.sections.end())
     s.camera = parse_camera(c, n->second, k.value_line("camera", 1));
 
-  const YAML::Node list = k.sections.at("tissues");
+  if (const auto n = k.sections.find("anatomy"); n != k.sections.end()) {
+    const int aline = k.value_line("anatomy", 1);
+    NeckDef neck;
+    read_table(c, n->second, "anatomy", aline, "anatomy", neck);
+    auto made = neck_tissues(neck, c.name + ":" + std::to_string(aline) + ": anatomy");
+    if (!made) throw ParseFailure{made.error().message};
+    for (TissueDef& t : *made) t.line = aline;
+    s.anatomy = neck;
+    s.tissues = std::move(*made);
+  }
+  const auto tl = k.sections.find("tissues");
+  if (tl == k.sections.end()) {
+    if (!s.anatomy) c.fail(1, "tissues", "missing; expected a list of tissues, or an 'anatomy' that generates them");
+    return s;
+  }
+  const YAML::Node list = tl->second;
   const int lline = k.value_line("tissues", 1);
-  if (!list.IsSequence() || list.size() == 0)
+  if (!list.IsSequence() || (list.size() == 0 && !s.anatomy))
     c.fail(lline, "tissues", "expected a non-empty list of tissues, got " + describe(list));
   for (size_t i = 0; i < list.size(); ++i) {
     TissueDef t = parse_tissue(c, list[i], i, lline);

@@ -226,12 +226,13 @@ bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, cons
     const double height = (tip - hole.surface).dot(hole.normal);
     bool now = false;
     if (height < R) {
+      Vec3 e = tip - hole.center;
+      e -= e.dot(hole.axis) * hole.axis;  // the tip's offset from the track's line
       if (hole.in_track) {
+        // Stays while the tip is near the line or the shaft still passes the hole (a tilt about it).
         Vec3 q;
-        now = segment_distance(tail, tip, hole.center, q) < R + D;
+        now = e.norm() < R + D || segment_distance(tail, tip, hole.center, q) < R + D;
       } else {
-        Vec3 e = tip - hole.center;
-        e -= e.dot(hole.axis) * hole.axis;
         now = e.norm() < R;
       }
     }
@@ -494,8 +495,15 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
         s.stats.indentation = delta;
         // Puncture: a needle whose indentation reaches max_displacement (Φ(D) = puncture_force);
         // the force of this tick is the law's value there, not past it (a tool that jumped deep).
-        const bool puncture = hip.sharp && delta >= D;
-        force = charged_contact_force(mat, puncture ? D : delta) * normal;
+        // A layer under one the tool is still pressing (not through) is pressed by that layer, not
+        // cut by the needle: it cannot be punctured before the layer above it is.
+        bool covered = false;
+        for (const ChargedLayer& layer : above) covered = covered || (layer.state && layer.state->engaged);
+        const bool puncture = hip.sharp && delta >= D && !covered;
+        // A covered layer at max_displacement under a needle carries its puncture force, no more:
+        // it tears as soon as the layer above lets the needle through.
+        const double held = hip.sharp && (puncture || covered) ? std::min(delta, D) : delta;
+        force = charged_contact_force(mat, held) * normal;
         contact_force = force.norm();
         if (puncture) {
           ChargedHole& hole = s.holes[static_cast<size_t>(s.next_hole)];
