@@ -5,6 +5,7 @@
 #include "commands.h"
 
 #include <fmt/core.h>
+#include <fmt/format.h>
 
 #include <cstdio>
 #include <unistd.h>
@@ -79,6 +80,14 @@ int run_command(const RunArgs& a) {
     for (const RunEvent& e : s.events)
       fmt::print("event      {:.3f} s  {:<9} {:<12} depth {:.2f} mm  force {:.3f} N\n", e.time,
                  e.kind, e.tissue, e.depth * 1e3, e.force);
+    // The outcome and the trainee's metrics (docs/cvc.md, "Outcome and metrics").
+    const TrainingMetrics& m = s.metrics;
+    fmt::print("outcome    {}\n", outcome_name(m.outcome));
+    fmt::print("metrics    skin punctures {}, passes {} (redirections {}), time to flashback {}\n",
+               m.skin_punctures, m.passes, m.redirections,
+               m.flashback ? fmt::format("{:.3f} s", m.time_to_flashback) : std::string("none"));
+    fmt::print("           deepest tip {:.1f} mm below the skin, peak force {:.3f} N\n",
+               m.deepest_depth * 1e3, m.peak_force);
     fmt::print("outputs    {}\n           {}\n", s.csv.string(), s.summary_json.string());
     for (const auto& p : s.plots) fmt::print("           {}\n", p.string());
     if (s.frames.size() <= 10) {

@@ -5,6 +5,7 @@
 
 #include <palpate/core.h>
 #include <palpate/device.h>
+#include <palpate/outcome.h>
 #include <palpate/safety.h>
 #include <palpate/scene.h>
 
@@ -55,6 +56,8 @@ struct LoopSettings {
   ToolDef tool;                       // tool.axis: the needle's direction at identity orientation;
                                       // each tick the tissues see orientation * tool.axis
   std::filesystem::path csv;          // record every tick here (via <csv>.part); "" = no recording
+  OutcomeModel outcome;               // roles and rest surfaces the run's outcome and metrics are
+                                      // tracked over each tick (build_outcome_model); empty = none
   size_t recorder_capacity = 8192;    // rows in the recorder's ring
   bool try_realtime_priority = true;  // ask for SCHED_FIFO (needs privileges; fine without)
 };
@@ -74,6 +77,7 @@ struct LoopStats {
   SafetyCounters safety;
   std::uint64_t recorder_dropped = 0; // rows the recorder's ring had no room for (should be 0)
   double max_force = 0;               // N, largest force sent
+  TrainingMetrics metrics;            // the run's outcome and the trainee's metrics so far
   Vec3 last_force = Vec3::Zero();     // N, the last force sent
   Vec3 last_position = Vec3::Zero();  // m, the device's last position
   bool realtime_priority = false;     // whether SCHED_FIFO was granted
@@ -119,7 +123,8 @@ class HapticLoop {
   // tool_qz (the device's orientation, unit), one vector each.
   Status finish_recording();
   const std::vector<std::vector<double>>& series() const;
-  // Tissue events drained during the run, in order (after finish_recording()).
+  // Tissue events drained during the run, in order (after finish_recording()); the loop adds a
+  // "flashback" event (tissue: the vein) on the tick the tip first enters a vein's lumen.
   struct Event {
     double time = 0;
     std::string kind;

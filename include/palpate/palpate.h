@@ -6,6 +6,7 @@
 #include <palpate/device.h>
 #include <palpate/haptics.h>
 #include <palpate/mesh.h>
+#include <palpate/outcome.h>
 #include <palpate/render.h>
 #include <palpate/run.h>
 #include <palpate/safety.h>

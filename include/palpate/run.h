@@ -39,7 +39,7 @@ struct RunFrame {
 
 struct RunEvent {
   double time = 0;     // s
-  std::string kind;    // "puncture", ...
+  std::string kind;    // "puncture", "flashback", ...
   std::string tissue;  // the tissue's name
   double depth = 0;    // m
   double force = 0;    // N
@@ -55,7 +55,8 @@ struct RunSummary {
   std::uint64_t deadline_misses = 0;              // realtime ticks that ended after the next deadline
   SafetyCounters safety;
   std::uint64_t recorder_dropped = 0;             // rows lost by the recorder (0 unless overloaded)
-  std::vector<RunEvent> events;
+  std::vector<RunEvent> events;                   // the tissues' events and the "flashback"
+  TrainingMetrics metrics;                        // outcome and the trainee's metrics (docs/cvc.md)
   std::filesystem::path csv, summary_json;        // where the outputs went
   std::vector<std::filesystem::path> plots;       // PNG plots written, if any
   std::string plot_error;                         // why plots are missing, if they are

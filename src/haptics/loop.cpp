@@ -71,6 +71,7 @@ struct HapticLoop::Impl {
   // Haptic-thread state.
   ToolState tool;
   DeviceState state;
+  OutcomeState outcome;
   Vec3 scene_axis = Vec3(0, -1, 0);      // unit, the needle's direction at identity (device frame)
   Vec3 last_good_position = Vec3::Zero();
   Quat last_good_orientation = Quat::Identity();
@@ -82,6 +83,8 @@ struct HapticLoop::Impl {
   RelaxedCount ticks, misses, resyncs, non_finite, step_failed, clamped, rate_limited, overrun,
       stalled, device_failed;
   RelaxedDouble max_force, fx, fy, fz, px, py, pz;
+  RelaxedCount m_outcome, m_skin_punctures, m_passes, m_redirections, m_flashback;
+  RelaxedDouble m_flashback_time, m_first_skin, m_time_to_flashback, m_deepest;
   std::atomic<bool> running{false}, stop_requested{false}, priority{false};
   std::thread thread;
 
@@ -93,6 +96,15 @@ struct HapticLoop::Impl {
     non_finite.set(c.non_finite), step_failed.set(c.step_failed), clamped.set(c.clamped);
     rate_limited.set(c.rate_limited), overrun.set(c.overrun), stalled.set(c.stalled);
     device_failed.set(c.device_failed);
+  }
+
+  void publish_metrics() noexcept {
+    const TrainingMetrics& m = outcome.metrics;
+    m_outcome.set(std::uint64_t(m.outcome)), m_skin_punctures.set(std::uint64_t(m.skin_punctures));
+    m_passes.set(std::uint64_t(m.passes)), m_redirections.set(std::uint64_t(m.redirections));
+    m_flashback.set(m.flashback ? 1 : 0), m_flashback_time.set(m.flashback_time);
+    m_first_skin.set(m.first_skin_puncture), m_time_to_flashback.set(m.time_to_flashback);
+    m_deepest.set(m.deepest_depth);
   }
 
   // One tick. `deadline_ns`: when this tick's work must be done (realtime), 0 headless.
@@ -197,11 +209,16 @@ struct HapticLoop::Impl {
       size_t n = 0;
       while ((n = slots[i].worker ? slots[i].worker->drain_events(event_buf)
                                   : slots[i].tissue->drain_events(event_buf)) > 0)
-        for (size_t e = 0; e < n; ++e)
-          if (recorder)
-            (void)recorder->push_event({event_buf[e].time, event_buf[e].kind, int(i),
-                                        event_buf[e].depth, event_buf[e].force});
+        for (size_t e = 0; e < n; ++e) {
+          const TissueEvent& ev = event_buf[e];
+          outcome_event(s.outcome, outcome, ev.kind, int(i), ev.time, tool.tip, tool.axis);
+          if (recorder) (void)recorder->push_event({ev.time, ev.kind, int(i), ev.depth, ev.force});
+        }
     }
+    // The outcome after this tick's events: where the tip is now (as the tissues saw it).
+    if (outcome_tick(s.outcome, outcome, t, tool.tip, tool.axis, fn) && recorder)
+      (void)recorder->push_event({t, "flashback", outcome.flashback_tissue, outcome.flashback_depth,
+                                  outcome.flashback_force});
 
     // 7. Live figures.
     ++k;
@@ -210,6 +227,7 @@ struct HapticLoop::Impl {
     fx.set(sent.x()), fy.set(sent.y()), fz.set(sent.z());
     px.set(state.position.x()), py.set(state.position.y()), pz.set(state.position.z());
     publish_counters();
+    publish_metrics();
   }
 
   void thread_main() noexcept {
@@ -287,6 +305,7 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
                                                   device.limits().stiffness, settings.realtime);
     m.slots.push_back(std::move(sl));
   }
+  m.publish_metrics();  // the live figures start as "nothing yet" (no flashback time 0 s)
   m.row.assign(m.columns.size(), 0.0);
   m.event_buf.resize(64);
   if (!settings.csv.empty()) {
@@ -360,6 +379,13 @@ LoopStats HapticLoop::stats() const {
   st.safety.device_failed = m.device_failed.get();
   st.recorder_dropped = m.recorder ? m.recorder->dropped() : 0;
   st.max_force = m.max_force.get();
+  TrainingMetrics& tm = st.metrics;
+  tm.outcome = static_cast<Outcome>(m.m_outcome.get());
+  tm.skin_punctures = int(m.m_skin_punctures.get()), tm.passes = int(m.m_passes.get());
+  tm.redirections = int(m.m_redirections.get()), tm.flashback = m.m_flashback.get() != 0;
+  tm.flashback_time = m.m_flashback_time.get(), tm.first_skin_puncture = m.m_first_skin.get();
+  tm.time_to_flashback = m.m_time_to_flashback.get(), tm.deepest_depth = m.m_deepest.get();
+  tm.peak_force = st.max_force;
   st.last_force = Vec3(m.fx.get(), m.fy.get(), m.fz.get());
   st.last_position = Vec3(m.px.get(), m.py.get(), m.pz.get());
   st.realtime_priority = m.priority.load();

@@ -122,6 +122,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   ls.watchdog.stall_timeout = scene.device.stall_timeout;
   ls.tool = scene.tool;
   ls.csv = out / "run.csv";
+  ls.outcome = build_outcome_model(scene);
   std::vector<LoopTissue> lt;
   for (size_t i = 0; i < tissues.size(); ++i)
     lt.push_back({tissues[i].get(), i < options.physics_dt.size() ? options.physics_dt[i] : 0.0});
@@ -207,6 +208,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   summary.deadline_misses = st.deadline_misses;
   summary.safety = st.safety;
   summary.recorder_dropped = st.recorder_dropped;
+  summary.metrics = st.metrics;
   for (const HapticLoop::Event& e : loop.events())
     summary.events.push_back({e.time, e.kind,
                               e.tissue >= 0 && size_t(e.tissue) < tissues.size() ? tissues[size_t(e.tissue)]->name() : "",
@@ -233,6 +235,18 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     j["realtime_priority"] = st.realtime_priority;
   }
   j["max_force_N"] = st.max_force;
+  // The outcome and the trainee's metrics (docs/cvc.md, "Outcome and metrics"); null = did not happen.
+  const TrainingMetrics& tm = summary.metrics;
+  auto time_or_null = [](bool happened, double t) { return happened ? nlohmann::json(t) : nlohmann::json(nullptr); };
+  j["outcome"] = outcome_name(tm.outcome);
+  j["metrics"] = {{"skin_punctures", tm.skin_punctures},
+                  {"passes", tm.passes},
+                  {"redirections", tm.redirections},
+                  {"first_skin_puncture_s", time_or_null(tm.first_skin_puncture >= 0, tm.first_skin_puncture)},
+                  {"flashback_s", time_or_null(tm.flashback, tm.flashback_time)},
+                  {"time_to_flashback_s", time_or_null(tm.flashback, tm.time_to_flashback)},
+                  {"deepest_depth_m", tm.deepest_depth},
+                  {"peak_force_N", tm.peak_force}};
   j["safety"] = {{"non_finite", sc.non_finite}, {"step_failed", sc.step_failed},
                  {"clamped", sc.clamped}, {"rate_limited", sc.rate_limited},
                  {"overrun", sc.overrun}, {"stalled", sc.stalled},

@@ -12,6 +12,7 @@
 
 #include <palpate/device.h>
 #include <palpate/haptics.h>
+#include <palpate/outcome.h>
 #include <palpate/surface.h>
 #include <palpate/tissue.h>
 
@@ -300,6 +301,7 @@ Status Viewer::start_loop() {
   s.realtime = true;
   s.ramp_in = scene_.device.ramp_in;
   s.tool = scene_.tool;
+  s.outcome = build_outcome_model(scene_);  // the outcome panel's figures, tracked on the loop's tick
   if (options_.overrun_margin >= 0) s.watchdog.overrun_margin = options_.overrun_margin;
   auto loop = HapticLoop::create(*device_, std::move(list), s);
   if (!loop) return loop.error();
@@ -594,6 +596,20 @@ void Viewer::draw_panels() {
     }
     const float top = std::max(0.5f, *std::max_element(bins, bins + kBins) * 1.1f);
     ImGui::PlotLines("##force", bins, kBins, 0, "|F| (N), last 5 s", 0.0f, top, ImVec2(-1, 80));
+  }
+  if (scene_.tool.kind == "needle" && ImGui::CollapsingHeader("Outcome", ImGuiTreeNodeFlags_DefaultOpen)) {
+    // Live from the haptic loop's relaxed counters (docs/cvc.md, "Outcome and metrics"); a tissue
+    // rebuilt from the edit panel restarts the loop and these with it.
+    if (loop_) {
+      const TrainingMetrics m = loop_->stats().metrics;
+      ImGui::Text("outcome %s", outcome_name(m.outcome));
+      ImGui::Text("skin punctures %d  passes %d  redirections %d", m.skin_punctures, m.passes, m.redirections);
+      if (m.flashback)
+        ImGui::Text("flashback %.2f s after the skin puncture", m.time_to_flashback);
+      else
+        ImGui::TextDisabled("no flashback yet");
+      ImGui::Text("deepest %.1f mm below the skin  peak |F| %.2f N", 1e3 * m.deepest_depth, m.peak_force);
+    }
   }
   if (ImGui::CollapsingHeader("Haptic loop", ImGuiTreeNodeFlags_DefaultOpen)) {
     if (loop_) {
