@@ -158,6 +158,32 @@ TEST_F(View, RendersTheTissueTakesScreenshotsAndAScriptedPressDentsItWithAForce)
   for (const auto& e : fs::directory_iterator(dir_)) EXPECT_NE(e.path().extension(), ".part") << e.path();
 }
 
+TEST_F(View, ANeedlePressedThroughTheSkinCountsTheSkinPunctureLive) {
+  // A charged skin sheet (role skin) at y = 0 and a needle; the scripted press takes the tip 8 mm
+  // past the surface along the eye's ray (about 6 mm below the skin), through it. The loop's live
+  // metrics, which the Outcome panel shows, are printed on exit.
+  const fs::path file = dir_ / "skin.yaml";
+  std::ofstream(file) << "name: view-skin\nduration: 1\ndt: 0.001\noutput: out\n"
+                         "tool: {kind: needle, radius: 0.0004, length: 0.06, axis: [0, -1, 0]}\n"
+                         "device:\n  kind: scripted\n  waypoints:\n    - {t: 0, position: [0, 0.01, 0]}\n"
+                         "camera: {position: [0, 0.05, 0.045], target: [0, 0, 0], fov: 40, width: 400, height: 300}\n"
+                         "tissues:\n  - name: skin\n    role: skin\n    model: charged_particles\n"
+                         "    patch: {shape: flat, width: 0.04, height: 0.04, spacing: 0.001}\n"
+                         "    material: {max_displacement: 0.003, puncture_force: 1.0, particle_radius: 0.001}\n";
+  Ran r = view(file.string() + " --frames 5 --exit --no-panels --probe 200,150,0.008 --overrun-margin 0.05");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("outcome: none"), std::string::npos) << r.out;
+  EXPECT_EQ(number_after(r.out, "skin_punctures:"), 1.0) << r.out;
+  EXPECT_EQ(number_after(r.out, "passes:"), 1.0) << r.out;
+  // The tip's final depth below the skin, from the printed tool position, is the deepest it went.
+  const size_t at = r.out.find("tool: ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  double x = 0, y = 0, z = 0;
+  ASSERT_EQ(std::sscanf(r.out.c_str() + at, "tool: %lf %lf %lf", &x, &y, &z), 3);
+  EXPECT_GT(-y, 0.004) << r.out;
+  EXPECT_NEAR(number_after(r.out, "deepest_depth_m:"), -y, 2e-4) << r.out;
+}
+
 TEST_F(View, AProbeOffTheTissueIsAClearErrorNotAHang) {
   Ran r = view(scene_.string() + " --frames 2 --exit --no-panels --probe 1,1,0.001");
   EXPECT_EQ(r.code, 1) << r.out;

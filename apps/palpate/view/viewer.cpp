@@ -787,6 +787,11 @@ int Viewer::run() {
     const LoopStats st = loop_->stats();
     fmt::print("haptic_ticks: {}\n", st.ticks);
     fmt::print("deadline_misses: {}\n", st.deadline_misses);
+    // What the Outcome panel showed last (docs/cvc.md): the loop's live metrics.
+    const TrainingMetrics& m = st.metrics;
+    fmt::print("outcome: {}\n", outcome_name(m.outcome));
+    fmt::print("skin_punctures: {}\npasses: {}\ndeepest_depth_m: {:.6f}\n", m.skin_punctures, m.passes,
+               m.deepest_depth);
   }
   std::fflush(stdout);
   stop_loop();

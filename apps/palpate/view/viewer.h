@@ -34,7 +34,8 @@ struct ViewerOptions {
 // Open the window and run until it is closed (or, with exit_after, until done). Returns the
 // process exit code: 0 fine, 1 a runtime failure (screenshot, probe missed, timeout), 2 the scene's
 // tissues could not be built, 3 no window or OpenGL 3.3. Messages go to stderr; on exit it prints
-// `frames:`, `force_N:` and `force:` lines to stdout.
+// `frames:`, `force_N:` and `force:` lines to stdout, and the Outcome panel's last figures
+// (`outcome:`, `skin_punctures:`, `passes:`, `deepest_depth_m:`).
 int run_viewer(const SceneDef& scene, const ViewerOptions& options);
 
 }  // namespace palpate::view
