@@ -183,11 +183,11 @@ constexpr double kArteryRadius = 0.004, kArteryAxisY = -0.014, kArteryX = 0.012;
 // and the artery beside it (x = 12 mm, top at −10 mm); each tube's seam (5 % of its circumference)
 // faces down and away from the needle's paths. The needle goes from `from` to `to` at 10 mm/s,
 // then holds still for 0.2 s.
-palpate::SceneDef neck(const fs::path& out, const Vec3& from, const Vec3& to) {
+palpate::SceneDef neck(const fs::path& out, const Vec3& from, const Vec3& to, const Vec3& axis = Vec3(0, -1, 0)) {
   palpate::SceneDef s;
   s.name = "outcome-test";
   s.output = out;
-  s.tool.kind = "needle", s.tool.radius = 0.00065, s.tool.length = 0.064, s.tool.axis = Vec3(0, -1, 0);
+  s.tool.kind = "needle", s.tool.radius = 0.00065, s.tool.length = 0.064, s.tool.axis = axis;
   s.device.ramp_in = 0.0;
   const double travel = (to - from).norm() / 0.01;
   s.device.waypoints = {{0.0, from}, {travel, to}};
@@ -196,7 +196,7 @@ palpate::SceneDef neck(const fs::path& out, const Vec3& from, const Vec3& to) {
     palpate::TissueDef t;
     t.name = name, t.role = role;
     palpate::PatchDef p;
-    p.width = 0.034, p.height = 0.03, p.spacing = 0.001, p.center = Vec3(0.002, y, 0), p.normal = Vec3(0, 1, 0);
+    p.width = 0.034, p.height = 0.05, p.spacing = 0.001, p.center = Vec3(0.002, y, 0), p.normal = Vec3(0, 1, 0);
     t.patch = p;
     t.charged.max_displacement = d, t.charged.puncture_force = fp, t.charged.thickness = 0.003;
     t.charged.friction_per_length = 40;
@@ -226,12 +226,13 @@ struct NeckRun {
   std::vector<Row> rows;
 };
 
-NeckRun run_neck(const std::string& name, const Vec3& from, const Vec3& to, bool plots = false) {
+NeckRun run_neck(const std::string& name, const Vec3& from, const Vec3& to, bool plots = false,
+                 const Vec3& axis = Vec3(0, -1, 0)) {
   const fs::path out = fs::temp_directory_path() / ("palpate_test_outcome_" + name);
   fs::remove_all(out);
   palpate::RunOptions o;
   o.plots = plots;
-  auto r = palpate::run_scene(neck(out, from, to), o);
+  auto r = palpate::run_scene(neck(out, from, to, axis), o);
   EXPECT_TRUE(r.ok()) << r.error().message;
   if (!r.ok()) return {};
   return {*r, nlohmann::json::parse(slurp(out / "summary.json")), read_csv(out / "run.csv")};
@@ -336,4 +337,21 @@ TEST(OutcomeRun, AWithdrawalAndReadvanceUnderTheSkinIsTwoPasses) {
   const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
   EXPECT_EQ(j["metrics"]["passes"], 2);
   EXPECT_NEAR(r->metrics.deepest_depth, 0.006, 1e-7);
+}
+
+TEST(OutcomeRun, AtAClinical45DegreesAlongTheVeinInIsVeinAndThroughIsPosteriorWall) {
+  // The needle along its own axis, 45° to the skin toward +z (the vein's axis), as in the procedure.
+  const Vec3 axis = Vec3(0, -1, 1).normalized();
+  const Vec3 centre(0, kVeinAxisY, 0.0003);
+  const NeckRun in = run_neck("angled_in", centre - 0.025 * axis, centre, false, axis);
+  EXPECT_EQ(in.json["outcome"], "vein") << in.json["events"].dump(2);
+  EXPECT_EQ(events_of(in.json, "flashback", "vein").size(), 1u);
+  EXPECT_EQ(in.json["metrics"]["passes"], 1);
+  EXPECT_NEAR(in.json["metrics"]["deepest_depth_m"].get<double>(), -kVeinAxisY, 1e-7);
+  // Past the centre until the tip is 2.5 mm below the back wall's rest surface.
+  const Vec3 beyond = centre + (kVeinRadius + 0.0025) / axis.dot(Vec3(0, -1, 0)) * axis;
+  const NeckRun through = run_neck("angled_through", centre - 0.025 * axis, beyond, false, axis);
+  EXPECT_EQ(through.json["outcome"], "posterior_wall") << through.json["events"].dump(2);
+  EXPECT_EQ(events_of(through.json, "puncture", "vein").size(), 2u);
+  EXPECT_EQ(through.json["metrics"]["passes"], 1);
 }
