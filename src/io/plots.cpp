@@ -45,20 +45,33 @@ Status plot_run(const std::filesystem::path& dir, const std::string& title, cons
   gp += "set terminal pngcairo size 900,540 enhanced font 'sans,11'\n";
   gp += "set grid\nset key top left noenhanced\n";
   gp += fmt::format("data = {}\n", quote(data.string()));
-  // Events: a dashed vertical line and a label each.
+  // Events: a dashed vertical line and a label each. Events closer in time than 1 % of the run
+  // (skin and fat giving on one tick, a vein's puncture and its flashback) share one line and one
+  // label, so the labels do not print over each other; a flashback's line is green.
   std::string marks_t, marks_d;
+  const double span = s.time.size() > 1 ? s.time.back() - s.time.front() : 0.0;
   int n = 1;
-  for (const RunEvent& e : events) {
-    const std::string label = quote(e.kind + " " + e.tissue);
+  for (size_t i = 0; i < events.size();) {
+    const double t = events[i].time;
+    std::string text;
+    bool flashback = false;
+    size_t j = i;
+    for (; j < events.size() && events[j].time - t <= 0.01 * span; ++j) {
+      text += (j > i ? ", " : "") + events[j].kind + " " + events[j].tissue;
+      flashback = flashback || events[j].kind == "flashback";
+    }
+    i = j;
+    const std::string label = quote(text);
+    const char* colour = flashback ? "#208040" : "#c03030";
     marks_t += fmt::format(
-        "set arrow {} from {:.6f}, graph 0 to {:.6f}, graph 1 nohead dt 2 lc rgb '#c03030'\n"
-        "set label {} {} at {:.6f}, graph 0.95 rotate by 90 right noenhanced font ',9' tc rgb '#c03030'\n",
-        n, e.time, e.time, n, label, e.time);
-    const double d = depth_at(s, e.time) * 1e3;
+        "set arrow {} from {:.6f}, graph 0 to {:.6f}, graph 1 nohead dt 2 lc rgb '{}'\n"
+        "set label {} {} at {:.6f}, graph 0.95 rotate by 90 right noenhanced font ',9' tc rgb '{}'\n",
+        n, t, t, colour, n, label, t, colour);
+    const double d = depth_at(s, t) * 1e3;
     marks_d += fmt::format(
-        "set arrow {} from {:.6f}, graph 0 to {:.6f}, graph 1 nohead dt 2 lc rgb '#c03030'\n"
-        "set label {} {} at {:.6f}, graph 0.95 rotate by 90 right noenhanced font ',9' tc rgb '#c03030'\n",
-        n, d, d, n, label, d);
+        "set arrow {} from {:.6f}, graph 0 to {:.6f}, graph 1 nohead dt 2 lc rgb '{}'\n"
+        "set label {} {} at {:.6f}, graph 0.95 rotate by 90 right noenhanced font ',9' tc rgb '{}'\n",
+        n, d, d, colour, n, label, d, colour);
     ++n;
   }
   const auto png_t = dir / "force_time.png";

@@ -287,9 +287,12 @@ TEST(OutcomeRun, StoppingInTheVeinsLumenIsVeinWithOneFlashbackWhenTheTipCrossesI
   if (!r.json["outputs"].contains("plot_error")) {
     const std::string gp = slurp(fs::temp_directory_path() / "palpate_test_outcome_vein" / "plots.gp");
     size_t marks = 0;
-    for (size_t at = gp.find("'flashback vein'"); at != std::string::npos; at = gp.find("'flashback vein'", at + 1))
+    for (size_t at = gp.find("flashback vein"); at != std::string::npos; at = gp.find("flashback vein", at + 1))
       ++marks;
     EXPECT_EQ(marks, 2u) << "force-time and force-depth";
+    // On the tick of the wall's puncture: one line and one label for both, green.
+    EXPECT_NE(gp.find("'puncture vein, flashback vein' at"), std::string::npos) << gp;
+    EXPECT_NE(gp.find("lc rgb '#208040'"), std::string::npos) << gp;
   }
 }
 
