@@ -24,6 +24,8 @@ struct RenderSurface {
   std::span<const uint32_t> triangles;  // (#T x 3) counter-clockwise seen from the front
   Vec3f color = Vec3f(0.86f, 0.47f, 0.45f);  // RGB in [0, 1]; the default is tissue pink
   bool wireframe = false;               // also draw the triangles' edges, darker
+  float opacity = 1.0f;                 // in (0, 1]; below 1 the surface is see-through: drawn after
+                                        // everything opaque and the tool, back to front, blended
 };
 
 // Particles or masses as round dots of a fixed size on screen.
@@ -109,10 +111,14 @@ struct FrameOptions {
   bool particles = false;   // the particles / masses as points
   bool links = false;       // neighbour links or springs as lines
   int resolution = 6;       // Bézier segments per patch edge (grids) / PN level (meshes)
+  bool translucent_cover = true;  // skin and fat (roles skin, fat) see-through, showing the needle
+                                  // and the vessels under them; false: opaque
 };
 
 // Draw one frame: each tissue's surface (a grid snapshot as the seed's Bézier patches, a
-// triangle snapshot smoothed with PN triangles), the tool at `tip` (a needle along `tool_axis`,
+// triangle snapshot smoothed with PN triangles) coloured by its role when `tissues` are the
+// scene's, in order (scene.tissues[i].role: skin, fat, muscle, vein, artery; other roles get the
+// layer palette by position, as before roles existed), the tool at `tip` (a needle along `tool_axis`,
 // unit, as it pointed at that tick; none = the scene's tool.axis), the force arrow, from the
 // scene's camera (or a camera framing every snapshot when the scene has none). Allocates:
 // call it off the haptic thread, from copied snapshots.

@@ -15,6 +15,27 @@ const Vec3f kPalette[] = {Vec3f(0.86f, 0.62f, 0.52f), Vec3f(0.93f, 0.82f, 0.45f)
                           Vec3f(0.72f, 0.18f, 0.2f), Vec3f(0.55f, 0.25f, 0.22f),
                           Vec3f(0.6f, 0.45f, 0.6f)};
 
+// Colours by role, as anatomy atlases draw them: the vein dark blue-purple, the artery bright red.
+// Skin and fat cover what the frame is about (the needle, the vessels): drawn see-through, the fat
+// fainter than the skin since it lies under it and both are crossed on the way to a vessel.
+struct RoleLook {
+  const char* role;
+  Vec3f color;
+  float cover_opacity;  // opacity when FrameOptions::translucent_cover; 1 = always opaque
+};
+const RoleLook kRoleLooks[] = {
+    {"skin", Vec3f(0.91f, 0.70f, 0.58f), 0.32f},  {"fat", Vec3f(0.96f, 0.84f, 0.40f), 0.22f},
+    {"muscle", Vec3f(0.62f, 0.24f, 0.22f), 1.0f}, {"vein", Vec3f(0.24f, 0.20f, 0.62f), 1.0f},
+    {"artery", Vec3f(0.90f, 0.08f, 0.10f), 1.0f},
+};
+
+const RoleLook* role_look(const SceneDef& scene, size_t n_tissues, size_t i) {
+  if (scene.tissues.size() != n_tissues) return nullptr;  // not the scene's tissues: no roles known
+  for (const RoleLook& r : kRoleLooks)
+    if (scene.tissues[i].role == r.role) return &r;
+  return nullptr;
+}
+
 CameraDef framing_camera(std::span<const TissueSnapshot> tissues, const Vec3& tip) {
   Eigen::AlignedBox3d box;
   box.extend(tip);
@@ -43,7 +64,8 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
   index_storage.reserve(tissues.size());
   for (size_t i = 0; i < tissues.size(); ++i) {
     const TissueSnapshot& t = tissues[i];
-    const Vec3f color = kPalette[i % std::size(kPalette)];
+    const RoleLook* look = role_look(scene, tissues.size(), i);
+    const Vec3f color = look ? look->color : kPalette[i % std::size(kPalette)];
     if (t.rows_cols.size() == 2 && t.rows_cols[0] >= 2 && t.rows_cols[1] >= 2) {
       SurfaceDef def;
       def.resolution = std::max(1, options.resolution);
@@ -77,6 +99,7 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
     surf.normals = storage.back();
     surf.triangles = index_storage.back();
     surf.color = color;
+    if (look && options.translucent_cover) surf.opacity = look->cover_opacity;
     rs.surfaces.push_back(surf);
   }
   for (const TissueSnapshot& t : tissues) {

@@ -178,6 +178,8 @@ Status check_scene(const RenderScene& s) {
                    std::to_string(m.positions.size() / 3) + " points; expected one per point (or none)"};
     if (m.triangles.size() % 3 != 0)
       return Error{where + std::to_string(m.triangles.size()) + " triangle indices; expected 3 per triangle"};
+    if (!(m.opacity > 0 && m.opacity <= 1))
+      return Error{where + "opacity " + std::to_string(m.opacity) + "; expected above 0 and at most 1"};
     const size_t np = m.positions.size() / 3;
     for (size_t k = 0; k < m.triangles.size(); ++k)
       if (m.triangles[k] >= np)
@@ -211,8 +213,9 @@ Status check_scene(const RenderScene& s) {
 // --- OpenGL --------------------------------------------------------------------------------------
 
 // Blinn-Phong per pixel, lit from a light fixed to the camera; two-sided (a back face is lit with
-// its normal flipped, so both sides of an open patch read as surfaces). `lit` = 0 draws flat
-// colour (lines, points); `round_points` cuts point sprites to discs.
+// its normal flipped, so both sides of an open patch read as surfaces), keeping the colour's alpha
+// (see-through surfaces). `lit` = 0 draws flat colour (lines, points); `round_points` cuts point
+// sprites to discs.
 const char* kVertexShader = R"(#version 120
 varying vec3 n_eye;
 varying vec3 p_eye;
@@ -240,7 +243,7 @@ void main() {
   float diffuse = max(dot(n, light_eye), 0.0);
   vec3 h = normalize(light_eye + v);
   float spec = diffuse > 0.0 ? pow(max(dot(n, h), 0.0), 40.0) : 0.0;
-  gl_FragColor = vec4(base * (0.22 + 0.78 * diffuse) + vec3(0.22 * spec), 1.0);
+  gl_FragColor = vec4(base * (0.22 + 0.78 * diffuse) + vec3(0.22 * spec), gl_Color.a);
 }
 )";
 
@@ -294,6 +297,65 @@ void draw_mesh(std::span<const float> positions, std::span<const float> normals,
   glDrawElements(GL_TRIANGLES, GLsizei(triangles.size()), GL_UNSIGNED_INT, triangles.data());
   glDisableClientState(GL_NORMAL_ARRAY);
   glDisableClientState(GL_VERTEX_ARRAY);
+}
+
+// See-through surfaces (opacity < 1), drawn after everything opaque: all their triangles sorted
+// far to near by the depth of their centroids along the view, blended over what is behind, without
+// writing depth (so one never hides another behind it: skin over fat over the vessels all show).
+// The image's alpha stays opaque. Sorting whole triangles is enough for layers a few mm apart seen
+// through two or three sheets; where triangles of two sheets interleave the nearer wins anyway.
+void draw_translucent(const RenderScene& scene, const CameraFrame& f) {
+  struct Tri {
+    double depth;
+    uint32_t surface, first;  // the surface, and the triangle's first index in its triangles
+  };
+  std::vector<Tri> tris;
+  std::vector<std::vector<float>> computed(scene.surfaces.size());
+  for (size_t i = 0; i < scene.surfaces.size(); ++i) {
+    const RenderSurface& m = scene.surfaces[i];
+    if (m.opacity >= 1) continue;
+    if (m.normals.empty()) computed[i] = vertex_normals(m.positions, m.triangles);
+    for (size_t t = 0; t + 2 < m.triangles.size(); t += 3) {
+      Vec3 c = Vec3::Zero();
+      for (int k = 0; k < 3; ++k) {
+        const size_t v = 3 * size_t(m.triangles[t + k]);
+        c += Vec3(m.positions[v], m.positions[v + 1], m.positions[v + 2]);
+      }
+      tris.push_back({(c / 3 - f.eye).dot(f.forward), uint32_t(i), uint32_t(t)});
+    }
+  }
+  if (tris.empty()) return;
+  std::stable_sort(tris.begin(), tris.end(), [](const Tri& a, const Tri& b) { return a.depth > b.depth; });
+  std::vector<float> p, n, c;  // (3 #T x 3), (3 #T x 3), (3 #T x 4): one vertex per corner
+  p.reserve(tris.size() * 9), n.reserve(tris.size() * 9), c.reserve(tris.size() * 12);
+  for (const Tri& t : tris) {
+    const RenderSurface& m = scene.surfaces[t.surface];
+    const std::span<const float> normals = m.normals.empty() ? std::span<const float>(computed[t.surface]) : m.normals;
+    for (int k = 0; k < 3; ++k) {
+      const size_t v = 3 * size_t(m.triangles[t.first + k]);
+      p.insert(p.end(), {m.positions[v], m.positions[v + 1], m.positions[v + 2]});
+      n.insert(n.end(), {normals[v], normals[v + 1], normals[v + 2]});
+      c.insert(c.end(), {m.color.x(), m.color.y(), m.color.z(), m.opacity});
+    }
+  }
+  glEnable(GL_BLEND);
+  glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ZERO, GL_ONE);
+  glDepthMask(GL_FALSE);
+  glEnable(GL_POLYGON_OFFSET_FILL);
+  glPolygonOffset(1.0f, 1.0f);
+  glEnableClientState(GL_VERTEX_ARRAY);
+  glEnableClientState(GL_NORMAL_ARRAY);
+  glEnableClientState(GL_COLOR_ARRAY);
+  glVertexPointer(3, GL_FLOAT, 0, p.data());
+  glNormalPointer(GL_FLOAT, 0, n.data());
+  glColorPointer(4, GL_FLOAT, 0, c.data());
+  glDrawArrays(GL_TRIANGLES, 0, GLsizei(p.size() / 3));
+  glDisableClientState(GL_COLOR_ARRAY);
+  glDisableClientState(GL_NORMAL_ARRAY);
+  glDisableClientState(GL_VERTEX_ARRAY);
+  glDisable(GL_POLYGON_OFFSET_FILL);
+  glDepthMask(GL_TRUE);
+  glDisable(GL_BLEND);
 }
 
 // The depth range the scene's geometry spans in front of the camera, for near and far planes.
@@ -387,6 +449,7 @@ Result<Image> render_rgba(const RenderScene& scene) {
   glEnable(GL_POLYGON_OFFSET_FILL);
   glPolygonOffset(1.0f, 1.0f);
   for (const RenderSurface& m : scene.surfaces) {
+    if (m.opacity < 1) continue;  // drawn after the tool, below
     std::vector<float> computed;
     std::span<const float> normals = m.normals;
     if (normals.empty()) {
@@ -410,6 +473,7 @@ Result<Image> render_rgba(const RenderScene& scene) {
     }
     draw_mesh(tool.positions, tool.normals, tool.triangles, t.color);
   }
+  draw_translucent(scene, frame);
 
   // Lines and points, unlit.
   glUniform1i(lit, 0);
