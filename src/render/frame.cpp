@@ -17,16 +17,18 @@ const Vec3f kPalette[] = {Vec3f(0.86f, 0.62f, 0.52f), Vec3f(0.93f, 0.82f, 0.45f)
 
 // Colours by role, as anatomy atlases draw them: the vein dark blue-purple, the artery bright red.
 // Skin and fat cover what the frame is about (the needle, the vessels): drawn see-through, the fat
-// fainter than the skin since it lies under it and both are crossed on the way to a vessel.
+// fainter than the skin since it lies under it and both are crossed on the way to a vessel. The
+// vessels are nearly opaque, enough to read as solid tubes and to show the needle's tip in the
+// lumen (the moment of the flashback).
 struct RoleLook {
   const char* role;
   Vec3f color;
   float cover_opacity;  // opacity when FrameOptions::translucent_cover; 1 = always opaque
 };
 const RoleLook kRoleLooks[] = {
-    {"skin", Vec3f(0.91f, 0.70f, 0.58f), 0.32f},  {"fat", Vec3f(0.96f, 0.84f, 0.40f), 0.22f},
-    {"muscle", Vec3f(0.62f, 0.24f, 0.22f), 1.0f}, {"vein", Vec3f(0.24f, 0.20f, 0.62f), 1.0f},
-    {"artery", Vec3f(0.90f, 0.08f, 0.10f), 1.0f},
+    {"skin", Vec3f(0.91f, 0.70f, 0.58f), 0.30f},  {"fat", Vec3f(0.96f, 0.84f, 0.40f), 0.12f},
+    {"muscle", Vec3f(0.62f, 0.24f, 0.22f), 1.0f}, {"vein", Vec3f(0.22f, 0.17f, 0.72f), 0.8f},
+    {"artery", Vec3f(0.90f, 0.08f, 0.10f), 0.8f},
 };
 
 const RoleLook* role_look(const SceneDef& scene, size_t n_tissues, size_t i) {
