@@ -627,16 +627,17 @@ TEST(ChargedStep, ALayerPushedDownPushesTheLayerBelowInsteadOfPassingThrough) {
       needle.shaft_length = 0.05, needle.radius = 0.0004;
       const Vec3 at = upper.origin(size_t(central_particle(upper))) + Vec3(0.0001, 0, 0.0002);
       double worst_crossing = 0, lower_moved = 0;
-      bool lower_punctured = false;
-      // Down until the lower layer punctures (before the upper one: 3 mm against 6 mm).
-      for (int t = 0; t <= 2000 && !lower_punctured; ++t) {
+      bool lower_punctured = false, upper_punctured = false;
+      // Down until a layer punctures. Coupled, the lower one (3 mm) is covered by the upper one
+      // (6 mm) and cannot be cut before it; uncoupled it goes first, under the intact upper layer.
+      for (int t = 0; t <= 2000 && !lower_punctured && !upper_punctured; ++t) {
         needle.position = Vec3(at.x(), 0.0015 - t * 4e-6, at.z());
         step(upper, su, needle, kDt, 0);
         step(lower, sl, needle, kDt, 1, coupled ? std::span<const ChargedLayer>(above) : std::span<const ChargedLayer>());
         TissueEvent ev[4];
-        ASSERT_EQ(drain_events(su, ev), 0u);
+        upper_punctured = drain_events(su, ev) > 0;
         lower_punctured = drain_events(sl, ev) > 0;
-        if (lower_punctured) break;
+        if (lower_punctured || upper_punctured) break;
         // Every lower particle against the upper particles above it (within half a spacing sideways).
         for (size_t a = 0; a < su.active_count; ++a) {
           const Vec3 p = su.position(size_t(su.active[a]));
@@ -648,13 +649,18 @@ TEST(ChargedStep, ALayerPushedDownPushesTheLayerBelowInsteadOfPassingThrough) {
         }
         lower_moved = std::max(lower_moved, max_displacement(lower, sl));
       }
-      ASSERT_TRUE(lower_punctured);
+      if (coupled) {
+        EXPECT_TRUE(upper_punctured && lower_punctured) << "both give in the same tick: the lower was held at D";
+      } else {
+        EXPECT_TRUE(lower_punctured && !upper_punctured);
+      }
       if (coupled) {
         // Within 5 % of the spacing: the separation rule, run after the press, may lift a pressed
         // particle slightly toward a neighbour the layer above does not reach.
         EXPECT_LT(worst_crossing, 0.05 * lower_spacing) << "spacing " << lower_spacing;
         EXPECT_GT(lower_moved, 0.002) << "the lower layer was pushed";
-        EXPECT_LE(max_displacement(lower, sl), fat.max_displacement * (1 + 1e-5));
+        // Carried past its own max_displacement by the layer above (never farther than that one's).
+        EXPECT_LE(max_displacement(lower, sl), skin.max_displacement + 0.002);
         EXPECT_LE(max_neighbour_distance(lower, sl), lower.max_separation * (1 + 2e-5));
       } else {
         EXPECT_GT(worst_crossing, 0.0005) << "without the coupling the layers cross (the test can fail)";

@@ -51,10 +51,12 @@ ChargedMaterialDef fat_material(const NeckDef& n) {
   return m;
 }
 
-ChargedMaterialDef vein_material() {
+ChargedMaterialDef vein_material(const NeckDef& n) {
   ChargedMaterialDef m;
   m.puncture_force = 0.5;       // N, a small distinct second pop (design value, see docs/cvc.md)
-  m.max_displacement = 0.005;   // m, the wall tents in: the lumen halves before the pop (Mallory 1990)
+  // The anterior wall tents in by 40 % of the diameter before it gives: the lumen's cross-section
+  // halves under the advancing needle (1.57 → 0.75 cm², Mallory et al. 1990).
+  m.max_displacement = 0.4 * n.ijv_diameter;
   m.linear_share = 0.3;
   m.elasticity = 20;
   m.max_strain = 0.5;
@@ -142,7 +144,7 @@ Result<std::vector<TissueDef>> neck_tissues(const NeckDef& n, const std::string&
   fat.patch->center = Vec3(0, -n.skin_thickness, 0);
   fat.charged = fat_material(n);
   out.push_back(fat);
-  out.push_back(tube("ijv", "vein", vein, kVeinNormal, n.length, n.vessel_spacing, vein_material()));
+  out.push_back(tube("ijv", "vein", vein, kVeinNormal, n.length, n.vessel_spacing, vein_material(n)));
   out.push_back(tube("cca", "artery", artery, kArteryNormal, n.length, n.vessel_spacing, artery_material()));
   return out;
 }

@@ -214,8 +214,8 @@ bool rest_surface(const ChargedModel& m, const Vec3& h, double rho, double& dist
 // track meets no resistance), and stays in it while the shaft passes within R + D of the hole's
 // centre and the tip is less than R above the surface (leaving sideways tears out; leaving
 // outward is clear of any contact, so the patch's force resumes from zero).
-// Returns whether the tool is in any track; `near`: whether its tip is within R + D of the centre
-// of a hole it is in (there the patch neither pushes nor is pushed: the tool passes through).
+// Returns whether the tool is in any track; `near`: whether its tip is by a hole it is in (there the
+// patch neither pushes nor is pushed: the tool passes through).
 bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, const Vec3& tail, double R,
                    int tissue, bool& near) noexcept {
   const double D = m.material.max_displacement;
@@ -249,7 +249,14 @@ bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, cons
     }
     hole.in_track = now && hole.open;
     any = any || hole.in_track;
-    near = near || (hole.in_track && (tip - hole.center).squaredNorm() < (R + D) * (R + D));
+    // Near: the tip is in the band where this hole's surface would be met (from D + 2R under it to
+    // R over it) and by the hole (sideways within R + D): there the patch must not be met anew.
+    // A tip on the track far beyond the band (across a vessel's lumen) meets the layer again.
+    if (hole.in_track && height > -(D + 2 * R)) {
+      Vec3 e = tip - hole.center;
+      e -= e.dot(hole.axis) * hole.axis;
+      near = near || e.norm() < R + D;
+    }
   }
   return any;
 }
@@ -290,13 +297,13 @@ void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, double R, 
 // Stage 2b — the layers above press on this one (scene order lists layers from the outside in):
 // an active particle of a layer above that lies below this layer's rest surface pushes down, along
 // their normals, the particles of this layer within ρ of it sideways that are above it, to its
-// level (within max_displacement). So a layer pushed down pushes the one below instead of passing
-// through it; the separation rule then spreads the push. Holes (reversed particles) are not pushed.
+// level (past this layer's max_displacement if need be: it is carried along). So a layer pushed
+// down pushes the one below instead of passing through it; the separation rule then spreads the
+// push. Holes (reversed particles) are not pushed.
 // Generated lattices only (their sideways search costs a few sites per particle).
 void press_from_above(const ChargedModel& m, ChargedState& s, std::span<const ChargedLayer> above,
                       size_t& q_tail) noexcept {
   if (m.layout == ChargedLayout::mesh) return;
-  const double D = m.material.max_displacement;
   for (const ChargedLayer& layer : above) {
     if (!layer.model || !layer.state) continue;
     const ChargedState& up = *layer.state;
@@ -314,12 +321,9 @@ void press_from_above(const ChargedModel& m, ChargedState& s, std::span<const Ch
         const Vec3 e = p - s.position(k);
         const double height = e.dot(nj);
         if (height >= 0 || (e - height * nj).squaredNorm() >= rho * rho) return;
-        const Vec3 o = m.origin(k);
-        Vec3 target = s.position(k) + height * nj;
-        const Vec3 d = target - o;
-        const double dl = d.norm();
-        if (dl > D) target = o + d * (D / dl);
-        set_position(s, j, target);
+        // Not clamped to this layer's max_displacement: a layer pressed by the one above is carried
+        // along by it (it cannot be cut before the one above is, so it does not stop it either).
+        set_position(s, j, s.position(k) + height * nj);
         touch(s, j, q_tail);
       }, true);
     }
@@ -329,8 +333,10 @@ void press_from_above(const ChargedModel& m, ChargedState& s, std::span<const Ch
 // Stage 3 — propagation (ChainMail, Gibson 1997): a moved particle drags each neighbour that now
 // violates max_separation just far enough to satisfy it, keeping the neighbour within its own
 // max_displacement; the neighbour is queued in turn. Only disturbed particles are visited.
-void propagation(const ChargedModel& m, ChargedState& s, size_t q_head, size_t q_tail) noexcept {
-  const double S = m.max_separation, D = m.material.max_displacement;
+// `D`: the farthest a particle may be dragged from its origin (max_displacement, more for a layer
+// carried along by the layers above it).
+void propagation(const ChargedModel& m, ChargedState& s, size_t q_head, size_t q_tail, double D) noexcept {
+  const double S = m.max_separation;
   const double S_check2 = S * S * (1 + kSeparationSlack) * (1 + kSeparationSlack);
   const size_t bound = 16 * m.size() + 1024;  // safety bound; never reached by a consistent patch
   size_t pops = 0;
@@ -462,9 +468,21 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
   size_t q_tail = 0;
   if (!near_hole) repulsion(m, s, h, R, s.side, q_tail);
   // 3b. The layers above press on this one.
+  const size_t before_press = q_tail;
   press_from_above(m, s, above, q_tail);
-  // 4. Propagation.
-  propagation(m, s, 0, q_tail);
+  const bool pressed = q_tail > before_press;
+  // 4. Propagation; then twice more the press and the separation rule (it may have pulled a pressed
+  // particle back toward a neighbour held at its max_displacement).
+  // A layer under others may be carried as far as they reach: its neighbours follow it there.
+  double carried = D;
+  for (const ChargedLayer& layer : above)
+    if (layer.model) carried = std::max(carried, D + layer.model->material.max_displacement);
+  propagation(m, s, 0, q_tail, carried);
+  for (int round = 0; round < 2 && pressed; ++round) {
+    q_tail = 0;
+    press_from_above(m, s, above, q_tail);
+    propagation(m, s, 0, q_tail, carried);
+  }
   double max_d2 = 0;
   for (size_t a = 0; a < s.active_count; ++a) {
     const auto k = static_cast<size_t>(s.active[a]);
