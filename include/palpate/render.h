@@ -112,7 +112,8 @@ struct FrameOptions {
   bool links = false;       // neighbour links or springs as lines
   int resolution = 6;       // Bézier segments per patch edge (grids) / PN level (meshes)
   bool translucent_cover = true;  // skin and fat (roles skin, fat) see-through, showing the needle
-                                  // and the vessels under them; false: opaque
+                                  // and the vessels under them, the vessels nearly opaque (the tip
+                                  // shows in the lumen); false: every surface opaque
 };
 
 // Draw one frame: each tissue's surface (a grid snapshot as the seed's Bézier patches, a
