@@ -2,7 +2,7 @@
 PRESET ?= release
 BUILD  := build/$(PRESET)
 CLI    := $(BUILD)/apps/palpate/palpate
-SCENE  ?= data/scenes/default.yaml
+SCENE  ?= data/scenes/cvc.yaml
 DEMO_OUT ?= out/demo
 
 .PHONY: all deps configure build test demo bench format tidy clean

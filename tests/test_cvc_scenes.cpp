@@ -3,14 +3,20 @@
 // as the procedure's outcomes — in the vein, through its back wall, into the carotid — with the
 // needle-feel properties (no rate limiting, punctures at their set forces) on the neck too.
 #include <palpate/anatomy.h>
+#include <palpate/outcome.h>
 #include <palpate/run.h>
 #include <palpate/scene.h>
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
+#include <vector>
 
 using namespace palpate;
 
@@ -79,10 +85,13 @@ TEST(CvcScenes, EachVariantGivesItsOutcomeWithTheNeedleFeelIntact) {
   struct Case {
     const char* file;
     long ijv, cca;  // punctures expected
-  } cases[] = {{"cvc.yaml", 1, 0}, {"cvc-deep-vein.yaml", 1, 0}, {"cvc-small-vein.yaml", 2, 0},
-               {"cvc-overlap.yaml", 2, 1}};
+    Outcome outcome;
+  } cases[] = {{"cvc.yaml", 1, 0, Outcome::vein}, {"cvc-deep-vein.yaml", 1, 0, Outcome::vein},
+               {"cvc-small-vein.yaml", 2, 0, Outcome::posterior_wall}, {"cvc-overlap.yaml", 2, 1, Outcome::artery}};
   for (const Case& c : cases) {
     const Shipped s = run_shipped(c.file);
+    EXPECT_EQ(s.run.metrics.outcome, c.outcome) << c.file;
+    EXPECT_TRUE(s.run.metrics.flashback) << c.file << ": every pass here enters the vein first";
     EXPECT_EQ(punctures(s.run, "skin"), 1) << c.file;
     EXPECT_EQ(punctures(s.run, "fat"), 1) << c.file;
     EXPECT_EQ(punctures(s.run, "ijv"), c.ijv) << c.file << ": the vein (2 = through its back wall)";
@@ -100,4 +109,74 @@ TEST(CvcScenes, EachVariantGivesItsOutcomeWithTheNeedleFeelIntact) {
     ASSERT_NE(first, s.run.events.end());
     EXPECT_TRUE(first->tissue == "skin" || first->tissue == "fat") << c.file;
   }
+}
+
+namespace {
+
+// run.csv as columns by name.
+std::map<std::string, std::vector<double>> read_csv(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> names;
+  for (std::stringstream ss(line); std::getline(ss, line, ',');) names.push_back(line);
+  std::map<std::string, std::vector<double>> cols;
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string cell;
+    for (size_t i = 0; i < names.size() && std::getline(ss, cell, ','); ++i)
+      cols[names[i]].push_back(cell.empty() ? 0.0 : std::strtod(cell.c_str(), nullptr));
+  }
+  return cols;
+}
+
+}  // namespace
+
+// The calibration table of docs/validation.md, held: each figure against its published target.
+TEST(CvcScenes, TheCalibratedSceneReproducesThePublishedFigures) {
+  auto scene = load_scene(PALPATE_SOURCE_DIR "/data/scenes/cvc.yaml");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  RunOptions o;
+  o.out = std::filesystem::temp_directory_path() / "palpate_cvc_calibration";
+  o.plots = false;
+  auto r = run_scene(*scene, o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  auto cols = read_csv(o.out / "run.csv");
+  std::filesystem::remove_all(o.out);
+  const auto& t = cols["t"];
+  ASSERT_GT(t.size(), 1000u);
+  auto event = [&](const char* kind, const char* tissue) {
+    for (const RunEvent& e : r->events)
+      if (e.kind == kind && e.tissue == tissue) return e;
+    ADD_FAILURE() << "no " << kind << " of " << tissue;
+    return RunEvent{};
+  };
+  auto row_at = [&](double time) {
+    return size_t(std::lower_bound(t.begin(), t.end(), time - 1e-9) - t.begin());
+  };
+  auto tip = [&](size_t k) { return Vec3(cols["tool_x"][k], cols["tool_y"][k], cols["tool_z"][k]); };
+  // Skin: the median puncture force over 24 studies, 1.22 N (van Gerwen et al. 2012).
+  EXPECT_NEAR(event("puncture", "skin").force, 1.22, 0.05 * 1.22);
+  // The vein's anterior wall: the design value 0.5 N (a second, smaller pop).
+  EXPECT_NEAR(event("puncture", "ijv").force, 0.5, 0.05 * 0.5);
+  // Needle path from the skin to blood at 45°: 15.0–21.5 mm (Maruyama et al. 1997).
+  size_t skin = 0;
+  while (skin < t.size() && tip(skin).y() > neck_skin_height(*scene->anatomy, tip(skin).x())) ++skin;
+  const size_t flash = row_at(event("flashback", "ijv").time);
+  ASSERT_LT(skin, flash);
+  const double path = (tip(flash) - tip(skin)).norm();
+  EXPECT_GE(path, 0.0150);
+  EXPECT_LE(path, 0.0215);
+  // Shaft friction ≈ 21 % of the insertion force (Barnett et al. 2015): the friction at the vein,
+  // against the peak force of the insertion.
+  const size_t before = row_at(event("puncture", "ijv").time) - 1;
+  const double friction = cols["force_N"][before] - cols["ijv.force_N"][before];
+  const double share = friction / r->max_force;
+  EXPECT_GT(share, 0.15);
+  EXPECT_LT(share, 0.27);
+  // Within what a Geomagic Touch renders (3.3 N peak).
+  EXPECT_LE(r->max_force, 3.3);
+  EXPECT_EQ(r->metrics.outcome, Outcome::vein);
+  EXPECT_EQ(r->metrics.skin_punctures, 1);
+  EXPECT_EQ(r->metrics.passes, 1);
 }
