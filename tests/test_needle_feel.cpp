@@ -232,3 +232,27 @@ TEST(NeedleFeel, TheShippedRunIsNeverRateLimitedWhileAFaultStillIs) {
   EXPECT_GT(f->safety.rate_limited, 0u);
   std::filesystem::remove_all(out);
 }
+
+// The same on the shipped CVC neck (data/scenes/cvc.yaml): an 18 G needle at 45° through skin and
+// fat into the jugular vein, at 1, 10 and 20 mm/s.
+TEST(NeedleFeel, NoGritOnTheCvcNeckAtEverySpeed) {
+  auto loaded = load_scene(PALPATE_SOURCE_DIR "/data/scenes/cvc.yaml");
+  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+  const SceneDef& scene = *loaded;
+  const Vec3 start = scene.device.waypoints.front().position;
+  const double travel = (scene.device.waypoints[2].position - start).norm();  // to the vein's centre
+  for (double speed : {0.001, 0.01, 0.02}) {
+    const Insertion r = insert(scene, speed, scene.dt, start, travel, false);
+    ASSERT_GE(punctures(r).size(), 3u) << speed;  // skin, fat, the vein's anterior wall
+    int checked = 0;
+    for (auto [from, to] : windows(scene, r))
+      for (size_t k = 1; k < r.ticks.size(); ++k) {
+        if (r.ticks[k - 1].t < from || r.ticks[k].t > to) continue;
+        ++checked;
+        ASSERT_GE(r.ticks[k].axial, r.ticks[k - 1].axial * (1 - 0.01))
+            << "speed " << speed << " m/s, t " << r.ticks[k].t << " s: the force fell by more than 1 %";
+      }
+    EXPECT_GT(checked, int(0.3 * r.ticks.size())) << speed;
+    for (const Tick& t : r.ticks) ASSERT_LE(t.norm, scene.device.max_force);
+  }
+}
