@@ -101,7 +101,7 @@ struct NeckDef {
   double cca_angle = 20.0;        // degrees below medial: where the CCA lies seen from the IJV
                                   //   (0 = beside it, medial; 90 = right under it)
   double spacing = 0.001;         // m, particle spacing of skin and fat
-  double vessel_spacing = 0.0005; // m, particle spacing of the vessel walls
+  double vessel_spacing = 0.0008; // m, particle spacing of the vessel walls
 };
 
 struct SceneDef {

@@ -208,6 +208,16 @@ bool rest_surface(const ChargedModel& m, const Vec3& h, double rho, double& dist
   return true;
 }
 
+// The signed height of p over a generated patch's rest surface (plane, cylinder, sphere), without
+// the patch's bounds: rest_surface's distance, at a few flops.
+double lattice_height(const ChargedModel& m, const Vec3& p) noexcept {
+  if (m.layout == ChargedLayout::flat) return (p - m.center).dot(m.normal);
+  const Vec3 w = p - (m.center - m.radius * m.normal);
+  if (m.layout == ChargedLayout::sphere) return w.norm() - m.radius;
+  const double x = w.dot(m.tangent_u), z = w.dot(m.normal);
+  return std::sqrt(x * x + z * z) - m.radius;
+}
+
 // Stage 1 — HIP update: which holes the tool passes through now; exits, and holes that close.
 // A tool enters a hole's track when its tip is within R of the track's line and no farther than
 // R above the rest surface there (where contact would begin: re-entering an open hole along its
@@ -310,10 +320,10 @@ void press_from_above(const ChargedModel& m, ChargedState& s, std::span<const Ch
     const double rho = 0.6 * std::max(layer.model->spacing, m.spacing);
     for (size_t a = 0; a < up.active_count; ++a) {
       const Vec3 p = up.position(static_cast<size_t>(up.active[a]));
-      double dist = 0;
-      Vec3 n;
-      // Particles only ever move inward, so one above the rest surface is above them all.
-      if (!rest_surface(m, p, 0.0, dist, n) || dist >= 0) continue;
+      // Particles only ever move inward, so one above the rest surface is above them all: most
+      // are, and this cheap height (no atan2, no patch bounds) turns them away first.
+      // (Beyond the patch's edges the sideways search below finds no site.)
+      if (lattice_height(m, p) >= 0) continue;
       for_each_candidate(m, p, rho, [&](int j) {
         const auto k = static_cast<size_t>(j);
         if (s.flags[k] & kReversed) return;
