@@ -234,7 +234,7 @@ TEST(NeedleFeel, TheShippedRunIsNeverRateLimitedWhileAFaultStillIs) {
 }
 
 // The same on the shipped CVC neck (data/scenes/cvc.yaml): an 18 G needle at 45° through skin and
-// fat into the jugular vein, at 1, 10 and 20 mm/s.
+// fat into the jugular vein and out again, at 1, 10 and 20 mm/s.
 TEST(NeedleFeel, NoGritOnTheCvcNeckAtEverySpeed) {
   auto loaded = load_scene(PALPATE_SOURCE_DIR "/data/scenes/cvc.yaml");
   ASSERT_TRUE(loaded.ok()) << loaded.error().message;
@@ -242,7 +242,7 @@ TEST(NeedleFeel, NoGritOnTheCvcNeckAtEverySpeed) {
   const Vec3 start = scene.device.waypoints.front().position;
   const double travel = (scene.device.waypoints[2].position - start).norm();  // to the vein's centre
   for (double speed : {0.001, 0.01, 0.02}) {
-    const Insertion r = insert(scene, speed, scene.dt, start, travel, false);
+    const Insertion r = insert(scene, speed, scene.dt, start, travel, true);
     ASSERT_GE(punctures(r).size(), 3u) << speed;  // skin, fat, the vein's anterior wall
     int checked = 0;
     for (auto [from, to] : windows(scene, r))
@@ -252,7 +252,14 @@ TEST(NeedleFeel, NoGritOnTheCvcNeckAtEverySpeed) {
         ASSERT_GE(r.ticks[k].axial, r.ticks[k - 1].axial * (1 - 0.01))
             << "speed " << speed << " m/s, t " << r.ticks[k].t << " s: the force fell by more than 1 %";
       }
-    EXPECT_GT(checked, int(0.3 * r.ticks.size())) << speed;
+    EXPECT_GT(checked, int(0.15 * r.ticks.size())) << speed;
     for (const Tick& t : r.ticks) ASSERT_LE(t.norm, scene.device.max_force);
+    // Out again: the friction of the shaft still inside, and no catch.
+    double smallest_puncture = 1e9;
+    for (const auto& t : scene.tissues) smallest_puncture = std::min(smallest_puncture, t.charged.puncture_force);
+    for (size_t k = r.ticks.size() / 2 + 1; k < r.ticks.size(); ++k)
+      ASSERT_LE(r.ticks[k].norm, r.ticks[k].friction_bound * (1 + 1e-9) + 0.1 * smallest_puncture)
+          << "speed " << speed << ", t " << r.ticks[k].t;
+    EXPECT_EQ(r.ticks.back().norm, 0.0);
   }
 }
