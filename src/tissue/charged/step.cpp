@@ -221,9 +221,10 @@ double lattice_height(const ChargedModel& m, const Vec3& p) noexcept {
 // Stage 1 — HIP update: which holes the tool passes through now; exits, and holes that close.
 // A tool enters a hole's track when its tip is within R of the track's line and no farther than
 // R above the rest surface there (where contact would begin: re-entering an open hole along its
-// track meets no resistance), and stays in it while the shaft passes within R + D of the hole's
-// centre and the tip is less than R above the surface (leaving sideways tears out; leaving
-// outward is clear of any contact, so the patch's force resumes from zero).
+// track meets no resistance), and stays in it while its tip is within R + D of the line or its
+// shaft passes within R + D of the hole's centre, and the tip is less than R above the surface
+// (leaving sideways tears out; leaving outward is clear of any contact, so the force resumes from
+// zero). Every way in is also a way to stay: a tool never flickers in and out of a track.
 // Returns whether the tool is in any track; `near`: whether its tip is by a hole it is in (there the
 // patch neither pushes nor is pushed: the tool passes through).
 bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, const Vec3& tail, double R,
@@ -234,17 +235,15 @@ bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, cons
   for (ChargedHole& hole : s.holes) {
     if (!hole.open) continue;
     const double height = (tip - hole.surface).dot(hole.normal);
+    Vec3 e = tip - hole.center;
+    e -= e.dot(hole.axis) * hole.axis;  // the tip's offset from the track's line
+    const double offset = e.norm();
     bool now = false;
     if (height < R) {
-      Vec3 e = tip - hole.center;
-      e -= e.dot(hole.axis) * hole.axis;  // the tip's offset from the track's line
-      if (hole.in_track) {
-        // Stays while the tip is near the line or the shaft still passes the hole (a tilt about it).
-        Vec3 q;
-        now = e.norm() < R + D || segment_distance(tail, tip, hole.center, q) < R + D;
-      } else {
-        now = e.norm() < R;
-      }
+      // Stays while the tip is near the line or the shaft still passes the hole (a tilt about it).
+      Vec3 q;
+      now = hole.in_track ? offset < R + D || segment_distance(tail, tip, hole.center, q) < R + D
+                          : offset < R;
     }
     if (hole.in_track && !now) {
       push_event(s, TissueEvent{s.time, "exit", tissue, 0.0, 0.0});
@@ -262,16 +261,12 @@ bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, cons
     // Near: the tip is in the band where this hole's surface would be met (from D + 2R under it to
     // R over it) and by the hole (sideways within R + D): there the patch must not be met anew.
     // A tip on the track far beyond the band (across a vessel's lumen) meets the layer again.
-    if (hole.in_track && height > -(D + 2 * R)) {
-      Vec3 e = tip - hole.center;
-      e -= e.dot(hole.axis) * hole.axis;
-      near = near || e.norm() < R + D;
-    }
+    near = near || (hole.in_track && height > -(D + 2 * R) && offset < R + D);
   }
   return any;
 }
 
-// Stage 2 — repulsion: a particle inside the HIP's sphere of influence is pushed inward along its
+// Stage 3 — repulsion: a particle inside the HIP's sphere of influence is pushed inward along its
 // own surface normal out to the sphere's surface (where the repulsion vanishes), but never beyond
 // max_displacement from its origin. Pushing along the normal (not radially, and always inward:
 // the tool comes from the outer side) keeps particles from sliding around or over the HIP, so a
@@ -304,7 +299,7 @@ void repulsion(const ChargedModel& m, ChargedState& s, const Vec3& h, double R, 
   });
 }
 
-// Stage 2b — the layers above press on this one (scene order lists layers from the outside in):
+// Stage 3b — the layers above press on this one (scene order lists layers from the outside in):
 // an active particle of a layer above that lies below this layer's rest surface pushes down, along
 // their normals, the particles of this layer within ρ of it sideways that are above it, to its
 // level (past this layer's max_displacement if need be: it is carried along). So a layer pushed
@@ -340,7 +335,7 @@ void press_from_above(const ChargedModel& m, ChargedState& s, std::span<const Ch
   }
 }
 
-// Stage 3 — propagation (ChainMail, Gibson 1997): a moved particle drags each neighbour that now
+// Stage 4 — propagation (ChainMail, Gibson 1997): a moved particle drags each neighbour that now
 // violates max_separation just far enough to satisfy it, keeping the neighbour within its own
 // max_displacement; the neighbour is queued in turn. Only disturbed particles are visited.
 // `D`: the farthest a particle may be dragged from its origin (max_displacement, more for a layer
