@@ -784,7 +784,9 @@ TEST(ChargedStep, ATwoSidedVesselWallIsPuncturedInThenOut) {
   EXPECT_NEAR(punctures[1].depth, wall.max_displacement - R, 2e-5);  // past the posterior wall, outward
   // In the lumen's middle nothing pushes sideways or back but the friction of the anterior wall.
   for (auto [y, f] : fy)
-    if (std::abs(y) < 0.002) ASSERT_LE(std::abs(f), wall.friction_per_length * wall.thickness * 1.001) << y;
+    if (std::abs(y) < 0.002) {
+      ASSERT_LE(std::abs(f), wall.friction_per_length * wall.thickness * 1.001) << y;
+    }
   // The posterior wall pushes back (up, against the needle) before it gives, and rises to F_p.
   double back = 0;
   for (auto [y, f] : fy)

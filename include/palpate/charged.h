@@ -154,8 +154,8 @@ ChargedState make_charged_state(const ChargedModel& model);
 // Back to rest without allocating: positions at origins, no holes, no events, zero force.
 void reset(const ChargedModel& model, ChargedState& state) noexcept;
 
-// One tick of the model, dt seconds (docs/models/charged-particles.md): HIP update, repulsion,
-// the layers `above` pressing on this one, propagation (separation rule), relaxation (elasticity),
+// One tick of the model, dt seconds (docs/models/charged-particles.md): HIP update, relaxation
+// (elasticity), repulsion, the layers `above` pressing on this one, propagation (separation rule),
 // force. Returns the force of the tissue on the HIP, N. noexcept, allocation-free, deterministic.
 // `tissue` tags the events it emits.
 Vec3 step(const ChargedModel& model, ChargedState& state, const ChargedHip& hip, double dt,

@@ -499,8 +499,9 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
   Vec3 force = Vec3::Zero();
   bool contact = false;
   double contact_force = 0;  // N, |the contact law's force| this tick (the track's forces apart)
-  if (near_hole) s.engaged = false;
-  if (!near_hole) {
+  if (near_hole) {
+    s.engaged = false;
+  } else {
     // Contact: the law Φ of the indentation δ = R − (height of h above the rest surface), along
     // the surface's normal on the tool's side. δ measures the tool against the surface the
     // particles sample, so it is the same at any spacing, and a function of the tool's position
@@ -533,17 +534,16 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
           s.next_hole = (s.next_hole + 1) % kChargedMaxHoles;
           hole.center = h, hole.axis = axis, hole.in_track = true, hole.open = true;
           hole.surface = h - dist * normal, hole.normal = normal, hole.bristle = 0;
-          // The give below carries this tick's force from here on — only what the hand already
-          // felt (the last tick's contact force): a tool that jumped into the layer gets no pop.
-          const double felt = s.contact_peak > 0 ? force.norm() : 0.0;
-          s.give = force.norm() > 0 ? Vec3(force * (felt / force.norm())) : Vec3::Zero();
+          // The give below carries this tick's force from here on — only if the hand already felt
+          // the contact on the last tick: a tool that jumped into the layer gets no pop.
+          s.give = s.contact_peak > 0 ? force : Vec3::Zero();
           s.give_age = 0;
           s.engaged = false;
           force.setZero();
           for_each_candidate(m, h, R + D, [&](int i) {
             if ((s.position(static_cast<size_t>(i)) - h).norm() < R) s.flags[static_cast<size_t>(i)] |= kReversed;
           });
-          s.contact_peak = std::max(s.contact_peak, felt);
+          s.contact_peak = std::max(s.contact_peak, s.give.norm());
           push_event(s, TissueEvent{s.time, "puncture", tissue, -dist, s.contact_peak});
         }
       }
@@ -574,8 +574,8 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
       const double off_norm = off.norm();
       if (off_norm > 0) force -= charged_track_force(mat, off_norm, R) * (off / off_norm);
       // Friction on the length of shaft inside the layer (Okamura et al. 2004): the part of the
-      // segment tail → tip whose depth below the rest surface lies in [0, thickness], Karnopp's
-      // kinetic friction per unit length smoothed by tanh so it is continuous through zero speed.
+      // segment tail → tip whose depth below the rest surface lies in [0, thickness], times the
+      // kinetic friction per unit length and the Dahl bristle's share of it.
       const double d_tip = (hole.surface - h).dot(hole.normal), d_tail = (hole.surface - tail).dot(hole.normal);
       const double lo = std::min(d_tip, d_tail), hi = std::max(d_tip, d_tail);
       const double overlap = std::max(0.0, std::min(hi, T) - std::max(lo, 0.0));
