@@ -99,10 +99,12 @@ TEST(CvcScenes, EachVariantGivesItsOutcomeWithTheNeedleFeelIntact) {
     EXPECT_EQ(s.run.safety.rate_limited, 0u) << c.file;
     EXPECT_EQ(s.run.safety.clamped, 0u) << c.file;
     EXPECT_GT(s.run.max_force, 1.0) << c.file << ": the needle is felt";
-    for (const RunEvent& e : s.run.events)
-      if (e.kind == "puncture")
+    for (const RunEvent& e : s.run.events) {
+      if (e.kind == "puncture") {
         EXPECT_NEAR(e.force, puncture_force(s.scene, e.tissue), 0.05 * puncture_force(s.scene, e.tissue))
             << c.file << " " << e.tissue;
+      }
+    }
     // Skin first (the fat under it gives in the same tick), then the vessels.
     const auto first = std::find_if(s.run.events.begin(), s.run.events.end(),
                                     [](const RunEvent& e) { return e.kind == "puncture"; });

@@ -34,7 +34,9 @@ TEST(ShippedScenes, EachRunsAndItsToolTouchesItsTissue) {
     EXPECT_GT(r->max_force, 0.1) << name << ": the tool never touched its tissue";
     // A needle's normal insertion and withdrawal never needs the rate limit (issue 19); a grasp let
     // go at 2.5 N (liver-probe) is a release the filter is there to soften.
-    if (scene->tool.kind == "needle") EXPECT_EQ(r->safety.rate_limited, 0u) << name;
+    if (scene->tool.kind == "needle") {
+      EXPECT_EQ(r->safety.rate_limited, 0u) << name;
+    }
   }
   EXPECT_GE(ran, 8);
 }
