@@ -119,10 +119,11 @@ class UltrasoundImager {
 
  private:
   NeckCompression model_;
-  std::vector<double> axial_kernel_;               // the PSF along the beam (pixels)
-  std::vector<std::vector<double>> lateral_kernel_;// the PSF across, per row (widens off focus)
+  std::vector<float> axial_kernel_;                // the PSF along the beam (pixels)
+  std::vector<std::vector<float>> lateral_kernel_; // the PSF across, per row (widens off focus)
   std::vector<std::complex<float>> field_, tmp_;   // scratch
-  std::vector<float> echo_, atten_;                 // scratch: per pixel amplitude, attenuation
+  std::vector<double> tgc_;                        // scratch: time-gain compensation per row
+  std::vector<Vec3> rest_;                         // scratch: the inverse displacement map's grid
 };
 
 // Write an ultrasound image as an 8-bit grey PNG (atomically, via <file>.part).

@@ -19,10 +19,11 @@ namespace palpate {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr int kGrid = 24;           // coarse grid (per side) of the inverse displacement map
+constexpr int kGrid = 16;           // coarse grid (per side) of the inverse displacement map
 constexpr int kElevation = 3;       // scatterer samples across the slice
 constexpr double kCell = 0.00012;   // m, scatterer cell in rest coordinates (below the resolution)
-constexpr size_t kTable = 1 << 16;  // complex Gaussian table size
+constexpr double kGelFilm = 0.001;  // m, coupling gel between the face and the skin that still images
+constexpr size_t kTable = 1 << 12;  // complex Gaussian table (32 KiB: stays in L1)
 
 enum Medium : std::uint8_t { kGel, kSkin, kFat, kMuscle, kDeep, kWall, kBlood, kCount };
 
@@ -49,7 +50,8 @@ std::uint64_t mix(std::uint64_t x) {
 }
 
 std::uint64_t cell_hash(std::int64_t i, std::int64_t j, std::int64_t k, std::uint64_t seed) {
-  return mix(mix(mix(seed ^ std::uint64_t(i)) ^ std::uint64_t(j)) ^ std::uint64_t(k));
+  return mix(seed ^ (std::uint64_t(i) * 0x8CB92BA72F3D8DD7ull) ^ (std::uint64_t(j) * 0xD6E8FEB86659FD93ull) ^
+             (std::uint64_t(k) * 0xA0761D6478BD642Full));
 }
 
 const std::vector<std::complex<float>>& gaussian_table() {
@@ -63,13 +65,14 @@ const std::vector<std::complex<float>>& gaussian_table() {
   return table;
 }
 
-std::vector<double> gaussian_kernel(double sigma_px) {
+std::vector<float> gaussian_kernel(double sigma_px) {
   const int half = std::max(1, int(std::ceil(3 * sigma_px)));
   std::vector<double> k(2 * half + 1);
   double sum = 0;
   for (int i = -half; i <= half; ++i) sum += k[i + half] = std::exp(-0.5 * i * i / (sigma_px * sigma_px));
-  for (double& v : k) v /= std::sqrt(sum * sum);  // unit gain for a constant (coherent) input
-  return k;
+  std::vector<float> out(k.size());
+  for (size_t i = 0; i < k.size(); ++i) out[i] = float(k[i] / sum);  // unit gain for a constant input
+  return out;
 }
 
 // Distance (m) outside a vessel's section (negative inside), approximately: the normalised radius's
@@ -77,6 +80,8 @@ std::vector<double> gaussian_kernel(double sigma_px) {
 double section_distance(const VesselSection& v, const Vec3& p, Vec3* normal) {
   Vec3 d = p - v.centre;
   d -= d.dot(v.axis) * v.axis;
+  const double far = v.a + 0.002;  // a ≥ b: beyond this the tissue is plainly outside
+  if (d.squaredNorm() > far * far) return 1.0;
   const Vec3 across = v.axis.cross(v.minor_dir);
   const double x = d.dot(across), y = d.dot(v.minor_dir);
   const double rho = std::sqrt(x * x / (v.a * v.a) + y * y / (v.b * v.b));
@@ -102,7 +107,9 @@ UltrasoundImager::UltrasoundImager(const NeckDef& neck, const ProbeDef& probe) :
   // Lateral: λ·F# at the focus (F# ≈ 2 for a linear array), focus at 40 % of the depth, widening
   // off focus like a Gaussian beam (Rayleigh range z_R = π w0² / λ).
   const double w0 = 2 * lambda * 2 / 2.355;  // σ at the focus
-  const double focus = 0.4 * probe.depth, zr = kPi * (2 * w0) * (2 * w0) / lambda;
+  // Dynamic receive focusing keeps the width nearly constant in depth: the beam widens as a Gaussian
+  // beam would with three times its Rayleigh range.
+  const double focus = 0.4 * probe.depth, zr = 3 * kPi * (2 * w0) * (2 * w0) / lambda;
   lateral_kernel_.resize(h);
   for (int r = 0; r < h; ++r) {
     const double z = (r + 0.5) * px_d;
@@ -140,12 +147,13 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
 
   // The inverse displacement map on a coarse grid: rest position X of the tissue now at x solves
   // X + u(X) = x (fixed point; u is smooth and small against its length scale).
-  std::vector<Vec3> rest((kGrid + 1) * (kGrid + 1));
+  std::vector<Vec3>& rest = rest_;
+  rest.resize((kGrid + 1) * (kGrid + 1));
   for (int gy = 0; gy <= kGrid; ++gy) {
     for (int gx = 0; gx <= kGrid; ++gx) {
       const Vec3 x = pixel(-0.5 + double(gx) * W / kGrid, -0.5 + double(gy) * H / kGrid);
       Vec3 X = x;
-      for (int it = 0; it < 6; ++it) X = x - model_.displacement(s, X);
+      for (int it = 0; it < 4; ++it) X = x - model_.displacement(s, X);
       rest[gy * (kGrid + 1) + gx] = X;
     }
   }
@@ -184,26 +192,40 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
   // The needle's shaft: from the tip back along its axis.
   const Vec3 shaft_dir = needle.axis.normalized();
   const double sigma_e = p.slice_thickness / 2.355;
-  const double needle_sigma = std::max(needle.radius, 0.7 * out.pixel_depth);
+  // The shaft's echo comes off its near wall: a thin line (under a pixel), its width then the PSF's.
+  const double needle_sigma = 0.6 * std::max(out.pixel_depth, out.pixel_width);
   const double beam_cross = needle.present ? shaft_dir.cross(f.beam).norm() : 0;
-  const double needle_gain = 6.0 * (0.25 + 0.75 * std::pow(beam_cross, 4));
+  const double needle_gain = 30.0 * (0.25 + 0.75 * std::pow(beam_cross, 4));
   const double reverb_step = 2 * needle.radius;  // ring-down between the shaft's walls
+  // Beyond this distance from the shaft's line the needle's echo and its reverberation are nil.
+  constexpr int kReverb = 3;  // reverberation copies under the shaft
+  const double needle_reach = 5 * std::max(needle_sigma, sigma_e) + kReverb * reverb_step;
+  // Attenuation per pixel of each medium and the time-gain compensation per row, as factors.
+  double atten_step[kCount];
+  for (int m = 0; m < kCount; ++m) atten_step[m] = std::pow(10.0, -2 * kAcoustic[m].attenuation * mhz * px_cm / 20);
+  std::vector<double>& tgc = tgc_;
+  tgc.resize(H);
+  for (int r = 0; r < H; ++r) tgc[r] = std::pow(10.0, (2 * 0.8 * mhz * (r + 0.5) * px_cm + p.gain) / 20);
 
   out.in_contact = false;
   for (int col = 0; col < W; ++col) {
-    double atten_db = 0;           // two-way, accumulated down the column
+    double atten = 1;              // two-way, accumulated down the column
     double transmit = 1;           // left after specular losses (interfaces, the needle)
     Medium above = kGel;
-    bool coupled = false;
+    // Coupled when the face touches the skin through at most a film of gel; otherwise air: no image.
+    Vec3 top_rest = rest_at(col, 0) - Vec3(0, -rn, 0);
+    top_rest.z() = 0;
+    const bool coupled = rn - top_rest.norm() - 0.5 * out.pixel_depth > -kGelFilm;
+    const Vec3 top = pixel(col, 0), step = out.pixel_depth * f.beam;
+    std::complex<float>* column = &field_[size_t(col) * H];  // column-major: the beam's samples in a row
     for (int row = 0; row < H; ++row) {
-      const size_t i = size_t(row) * W + col;
-      const Vec3 x = pixel(col, row);
+      const Vec3 x = top + row * step;
       // Which tissue is here now: vessels by their current sections, the rest by rest position.
       const int sk = section_index(x.z());
-      Vec3 normal;
+      Vec3 normal = -f.beam;
       Medium tissue;
       const double dv = section_distance(vein[sk], x, &normal);
-      Vec3 na;
+      Vec3 na = -f.beam;
       const double da = section_distance(artery[sk], x, &na);
       Vec3 X = rest_at(col, row);
       Vec3 radial = X - Vec3(0, -rn, 0);
@@ -211,21 +233,21 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
       const double depth = rn - radial.norm();
       if (dv < 0 || da < 0) {
         tissue = kBlood;
+        if (da < dv) normal = na;
       } else if (dv < wall || da < wall) {
         tissue = kWall;
         if (da < dv) normal = na;
       } else if (depth < -1e-4) {
         tissue = kGel;
       } else if (depth < skin) {
-        tissue = kSkin, normal = radial.normalized();
+        tissue = kSkin;
       } else if (depth < fat) {
-        tissue = kFat, normal = radial.normalized();
+        tissue = kFat;
       } else if (depth < muscle) {
-        tissue = kMuscle, normal = radial.normalized();
+        tissue = kMuscle;
       } else {
-        tissue = kDeep, normal = radial.normalized();
+        tissue = kDeep;
       }
-      if (tissue != kGel) coupled = true;
 
       // Scatter: a fixed complex Gaussian field in rest coordinates, summed across the slice.
       std::complex<float> z(0, 0);
@@ -253,6 +275,7 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
       }
       // Specular echo where the tissue changes along the beam, strongest facing the beam.
       if (tissue != above && above != kGel && tissue != kGel) {
+        if (tissue != kWall && tissue != kBlood && above != kWall && above != kBlood) normal = radial.normalized();
         const double za = kAcoustic[above].impedance, zb = kAcoustic[tissue].impedance;
         const double refl = std::abs(zb - za) / (za + zb);
         const double facing = std::pow(std::abs(normal.dot(f.beam)), 4);
@@ -262,27 +285,34 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
       if (tissue == kWall) z += std::complex<float>(float(0.6 * std::pow(std::abs(normal.dot(f.beam)), 2)), 0.f);
       // The needle: a strong specular reflector where it meets the plane (elevation beam profile),
       // with reverberation under it (ring-down inside the shaft) and a shadow beneath.
-      if (needle.present) {
-        double hit = 0;
-        for (int k = 0; k < 5; ++k) {
-          const Vec3 q = x - (k * reverb_step) * f.beam;
-          const double along = std::clamp((q - needle.tip).dot(-shaft_dir), 0.0, needle.length);
-          const Vec3 d = q - (needle.tip - along * shaft_dir);
-          const double e = d.dot(f.elevation);
-          const double ip2 = (d - e * f.elevation).squaredNorm();
-          hit += std::pow(0.45, k) * std::exp(-0.5 * ip2 / (needle_sigma * needle_sigma) -
-                                              0.5 * e * e / (sigma_e * sigma_e));
+      if (needle.present && (x - needle.tip).cross(shaft_dir).squaredNorm() < needle_reach * needle_reach) {
+        // The shaft's nearest point: the slice's beam profile (elevation) is the same for the
+        // reverberation's copies (they lie along the beam), and they lie only below the shaft.
+        const double along0 = std::clamp((x - needle.tip).dot(-shaft_dir), 0.0, needle.length);
+        const Vec3 d0 = x - (needle.tip - along0 * shaft_dir);
+        const double e0 = d0.dot(f.elevation), below = d0.dot(f.beam);
+        const double elev = 0.5 * e0 * e0 / (sigma_e * sigma_e);
+        double hit = 0, weight = 1;
+        if (elev < 12 && below > -5 * needle_sigma && below < kReverb * reverb_step + 5 * needle_sigma) {
+          for (int k = 0; k <= kReverb; ++k, weight *= 0.4) {
+            const Vec3 q = x - (k * reverb_step) * f.beam;
+            const double along = std::clamp((q - needle.tip).dot(-shaft_dir), 0.0, needle.length);
+            const Vec3 d = q - (needle.tip - along * shaft_dir);
+            const double e = d.dot(f.elevation);
+            const double arg = 0.5 * (d - e * f.elevation).squaredNorm() / (needle_sigma * needle_sigma) +
+                               0.5 * e * e / (sigma_e * sigma_e);
+            if (arg < 12) hit += weight * std::exp(-arg);
+          }
         }
         if (hit > 1e-4) {
           z += std::complex<float>(float(needle_gain * hit * transmit), 0.f);
-          transmit *= 1 - 0.5 * std::min(1.0, hit);
+          transmit *= 1 - 0.3 * std::min(1.0, hit);
         }
       }
       // Attenuation (two-way, down to this pixel) and time-gain compensation for 0.8 dB/(cm·MHz).
-      atten_db += 2 * kAcoustic[tissue].attenuation * mhz * px_cm;
-      const double tgc_db = 2 * 0.8 * mhz * (row + 0.5) * px_cm;
-      const double amp = coupled ? transmit * std::pow(10.0, (tgc_db - atten_db + p.gain) / 20) : 0.0;
-      field_[i] = z * float(amp);
+      atten *= atten_step[tissue];
+      const double amp = coupled ? transmit * atten * tgc[row] : 0.0;
+      column[row] = z * float(amp);
       above = tissue;
     }
     out.in_contact = out.in_contact || coupled;
@@ -291,32 +321,31 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
   // Point-spread function: along the beam, then across with the row's lateral width.
   const int ha = int(axial_kernel_.size() / 2);
   for (int col = 0; col < W; ++col) {
+    const std::complex<float>* in = &field_[size_t(col) * H];
     for (int row = 0; row < H; ++row) {
+      const int lo = std::max(-ha, -row), hi = std::min(ha, H - 1 - row);
       std::complex<float> acc(0, 0);
-      for (int k = -ha; k <= ha; ++k) {
-        const int r = row + k;
-        if (r >= 0 && r < H) acc += field_[size_t(r) * W + col] * float(axial_kernel_[k + ha]);
-      }
+      for (int k = lo; k <= hi; ++k) acc += in[row + k] * axial_kernel_[k + ha];
       tmp_[size_t(row) * W + col] = acc;
     }
   }
   for (int row = 0; row < H; ++row) {
-    const std::vector<double>& kl = lateral_kernel_[row];
+    const std::vector<float>& kl = lateral_kernel_[row];
     const int hl = int(kl.size() / 2);
     const std::complex<float>* in = &tmp_[size_t(row) * W];
     for (int col = 0; col < W; ++col) {
       std::complex<float> acc(0, 0);
       const int lo = std::max(-hl, -col), hi = std::min(hl, W - 1 - col);
-      for (int k = lo; k <= hi; ++k) acc += in[col + k] * float(kl[k + hl]);
-      out.envelope[size_t(row) * W + col] = std::abs(acc);
+      for (int k = lo; k <= hi; ++k) acc += in[col + k] * kl[k + hl];
+      out.envelope[size_t(row) * W + col] = std::sqrt(acc.real() * acc.real() + acc.imag() * acc.imag());
     }
   }
   // Log compression: 0 dB (white) at 8× the unit-echogenicity speckle's mean, `dynamic_range` to black.
-  const double ref = 8.0, dr = p.dynamic_range;
+  const float ref = 8.0f, dr = float(p.dynamic_range), to_db = 20.0f / std::log(10.0f);
   for (size_t i = 0; i < N; ++i) {
-    const double e = out.envelope[i];
-    const double db = e > 0 ? 20 * std::log10(e / ref) : -1e9;
-    out.grey[i] = std::uint8_t(std::clamp(255.0 * (db + dr) / dr, 0.0, 255.0) + 0.5 * (db > -dr));
+    const float e = out.envelope[i];
+    const float db = e > 0 ? to_db * std::log(e / ref) : -1e9f;
+    out.grey[i] = std::uint8_t(std::clamp(255.0f * (db + dr) / dr + 0.5f, 0.0f, 255.0f));
   }
 }
 
