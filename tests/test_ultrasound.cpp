@@ -363,5 +363,59 @@ TEST(Ultrasound, TheVeinsTubeLawCollapsesItBetweenAFractionOfANewtonAndAFewNewto
   }
 }
 
+// The first row, going down a column from `row0`, whose 5-row vertical mean is below `level`.
+int first_dark_row(const UltrasoundImage& img, int col, int row0, int level = 40) {
+  for (int r = row0 + 2; r < img.height - 2; ++r) {
+    int sum = 0;
+    for (int dr = -2; dr <= 2; ++dr)
+      for (int dc = -2; dc <= 2; ++dc) sum += img.grey[size_t(r + dr) * img.width + col + dc];
+    if (sum / 25 < level) return r;
+  }
+  return -1;
+}
+
+TEST(Ultrasound, TheVeinsWallShowsTentedWhereTheNeedlesTissuePushesIt) {
+  const NeckDef neck;
+  const ProbeDef probe;
+  UltrasoundImager us(neck, probe);
+  const ProbePose pose = pressed_with(us.neck(), neck, 0.3);
+  const VesselGeometry g = neck_vein(neck);
+  // A ring of wall particles every 5° and every 0.5 mm along the vein, rest and now: the top of the
+  // wall pushed 3 mm into the lumen, tapering over ±30° (a needle tenting it from above).
+  std::vector<Vec3f> rest, now;
+  for (double z = -0.004; z <= 0.004; z += 0.0005)
+    for (int deg = 0; deg < 360; deg += 5) {
+      const double a = deg * 3.14159265358979 / 180;
+      const Vec3 radial(std::cos(a), std::sin(a), 0);
+      const Vec3 r = g.axis_point + g.radius * radial + Vec3(0, 0, z);
+      const double off = std::abs(deg - 90);
+      const double push = off < 30 ? 0.003 * std::pow(std::cos(off / 30 * 1.5708), 2) : 0.0;
+      rest.push_back(r.cast<float>());
+      now.push_back((r - push * radial).cast<float>());
+    }
+  UltrasoundImage plain, tented;
+  us.render(pose, {}, 0, plain);
+  us.set_vein_wall(rest, now);
+  us.render(pose, {}, 0, tented);
+  save_if_asked(tented, "us_tented.png");
+  const auto s = us.neck().state(pose, 0);
+  const Eigen::Vector2d c = to_pixel(us, pose, s.vein.centre);
+  const int col = int(std::lround(c.x()));
+  const int from = int(c.y() - 1.5 * g.radius / plain.pixel_depth);  // above the vein
+  const int top_plain = first_dark_row(plain, col, from), top_tented = first_dark_row(tented, col, from);
+  ASSERT_GT(top_plain, 0);
+  EXPECT_NEAR((top_tented - top_plain) * plain.pixel_depth, 0.003, 0.0006);
+  // Away from the tent (the bottom wall) nothing moved.
+  const int side = col + int(0.8 * g.radius / plain.pixel_width);
+  EXPECT_NEAR(first_dark_row(tented, side, from), first_dark_row(plain, side, from), 2);
+  // Particles outside the slice do not show: the same push 10 mm along the vein changes nothing.
+  for (auto& p : rest) p.z() += 0.010f;
+  for (auto& p : now) p.z() += 0.010f;
+  us.set_vein_wall(rest, now);
+  UltrasoundImage away;
+  us.render(pose, {}, 0, away);
+  EXPECT_EQ(away.grey, plain.grey);
+}
+
 }  // namespace
 }  // namespace palpate

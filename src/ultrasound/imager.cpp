@@ -126,6 +126,12 @@ Vec3 UltrasoundImager::pixel_position(const ProbePose& probe, double column, dou
          ((row + 0.5) * p.depth / p.image_height) * f.beam;
 }
 
+void UltrasoundImager::set_vein_wall(std::span<const Vec3f> rest, std::span<const Vec3f> now) {
+  const size_t n = rest.size() == now.size() ? rest.size() : 0;
+  wall_rest_.assign(rest.begin(), rest.begin() + std::ptrdiff_t(n));
+  wall_now_.assign(now.begin(), now.begin() + std::ptrdiff_t(n));
+}
+
 void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, double t, UltrasoundImage& out) {
   const ProbeDef& p = model_.probe();
   const NeckDef& n = model_.neck();
@@ -182,6 +188,37 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
     return std::clamp(int(std::lround((z - z0) / (z1 - z0) * (kSections - 1))), 0, kSections - 1);
   };
 
+  // The needle's tenting of the vein's wall near the plane: the largest inward displacement of the
+  // wall's particles within the slice, per sector of the vein's section (angle about its centre).
+  constexpr int kSectors = 48;
+  double tent[kSectors] = {};
+  bool tented = false;
+  const VesselGeometry vein_rest = neck_vein(n);
+  const VesselSection& vein_mid = vein[kSections / 2];
+  const Vec3 across_mid = vein_mid.axis.cross(vein_mid.minor_dir);
+  for (size_t k = 0; k < wall_rest_.size(); ++k) {
+    const Vec3 r = wall_rest_[k].cast<double>(), now = wall_now_[k].cast<double>();
+    if (std::abs((r - f.origin).dot(f.elevation)) > p.slice_thickness) continue;
+    Vec3 radial = r - vein_rest.axis_point;
+    radial -= radial.dot(vein_rest.axis) * vein_rest.axis;
+    if (radial.norm() < 1e-9) continue;
+    radial.normalize();
+    const double inward = -(now - r).dot(radial);
+    if (!(inward > 0)) continue;
+    const double angle = std::atan2(radial.dot(vein_mid.minor_dir), radial.dot(across_mid));
+    const int sector = int(std::floor((angle + kPi) / (2 * kPi) * kSectors)) % kSectors;
+    tent[sector] = std::max(tent[sector], inward);
+    tented = true;
+  }
+  const auto tent_at = [&](const Vec3& x, const VesselSection& v) {
+    Vec3 d = x - v.centre;
+    d -= d.dot(v.axis) * v.axis;
+    const double pos = (std::atan2(d.dot(v.minor_dir), d.dot(v.axis.cross(v.minor_dir))) + kPi) / (2 * kPi) * kSectors - 0.5;
+    const int i0 = int(std::floor(pos));
+    const double w = pos - i0;
+    return (1 - w) * tent[((i0 % kSectors) + kSectors) % kSectors] + w * tent[(((i0 + 1) % kSectors) + kSectors) % kSectors];
+  };
+
   const double rn = n.neck_radius, skin = n.skin_thickness, fat = skin + n.fat_thickness;
   const double muscle = fat + n.muscle_thickness;
   constexpr double wall = 0.0006;  // m, vessel wall thickness in the image
@@ -217,6 +254,24 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
     top_rest.z() = 0;
     const bool coupled = rn - top_rest.norm() - 0.5 * out.pixel_depth > -kGelFilm;
     const Vec3 top = pixel(col, 0), step = out.pixel_depth * f.beam;
+    // The rows where this beam passes near each vessel (|d(row)|² is quadratic in the row): only
+    // there is the section's distance worth computing.
+    const auto near_rows = [&](const VesselSection& v, int& lo, int& hi) {
+      Vec3 d0 = top - v.centre, d1 = step;
+      d0 -= d0.dot(v.axis) * v.axis, d1 -= d1.dot(v.axis) * v.axis;
+      const double far = v.a + 0.003, qa = d1.squaredNorm(), qb = 2 * d0.dot(d1), qc = d0.squaredNorm() - far * far;
+      const double disc = qb * qb - 4 * qa * qc;
+      if (qa <= 0 || disc < 0) {
+        lo = 0, hi = qc < 0 ? H : -1;
+        return;
+      }
+      lo = int(std::floor((-qb - std::sqrt(disc)) / (2 * qa))), hi = int(std::ceil((-qb + std::sqrt(disc)) / (2 * qa)));
+    };
+    const int mid = section_index(top.z());
+    int vein_lo, vein_hi, artery_lo, artery_hi;
+    near_rows(vein[mid], vein_lo, vein_hi);
+    near_rows(artery[mid], artery_lo, artery_hi);
+    const bool uneven = std::abs(f.beam.z()) > 1e-6;  // the beam runs along the vessels: check every row
     std::complex<float>* column = &field_[size_t(col) * H];  // column-major: the beam's samples in a row
     for (int row = 0; row < H; ++row) {
       const Vec3 x = top + row * step;
@@ -224,9 +279,12 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
       const int sk = section_index(x.z());
       Vec3 normal = -f.beam;
       Medium tissue;
-      const double dv = section_distance(vein[sk], x, &normal);
+      const bool by_vein = uneven || (row >= vein_lo && row <= vein_hi);
+      const bool by_artery = uneven || (row >= artery_lo && row <= artery_hi);
+      double dv = by_vein ? section_distance(vein[sk], x, &normal) : 1.0;
+      if (tented && dv < 0.003) dv += tent_at(x, vein[sk]);  // the wall pushed in: more of it outside
       Vec3 na = -f.beam;
-      const double da = section_distance(artery[sk], x, &na);
+      const double da = by_artery ? section_distance(artery[sk], x, &na) : 1.0;
       Vec3 X = rest_at(col, row);
       Vec3 radial = X - Vec3(0, -rn, 0);
       radial.z() = 0;
