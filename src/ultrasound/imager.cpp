@@ -42,6 +42,12 @@ constexpr Acoustic kAcoustic[kCount] = {
     {0.006, 0.15, 1.61}, // blood (≈ 45 dB below tissue: anechoic)
 };
 
+// floor() without the libm call (x86-64 without SSE4.1 has no rounding instruction).
+inline std::int64_t fast_floor(double v) {
+  const auto i = static_cast<std::int64_t>(v);
+  return i - static_cast<std::int64_t>(v < static_cast<double>(i));
+}
+
 std::uint64_t mix(std::uint64_t x) {
   x += 0x9E3779B97F4A7C15ull;
   x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
@@ -185,7 +191,7 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
     artery[k] = model_.artery_at(s, along);
   }
   const auto section_index = [&](double z) {
-    return std::clamp(int(std::lround((z - z0) / (z1 - z0) * (kSections - 1))), 0, kSections - 1);
+    return std::clamp(int(fast_floor((z - z0) / (z1 - z0) * (kSections - 1) + 0.5)), 0, kSections - 1);
   };
 
   // The needle's tenting of the vein's wall near the plane: the largest inward displacement of the
@@ -317,16 +323,14 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
         if (fr < 0.12) echo *= 3.2;
       } else if (tissue == kMuscle) {
         // Fibre bundles cut across: a mottled texture on a millimetre scale.
-        const std::uint64_t hsh = cell_hash(std::int64_t(std::floor(X.x() / 0.0009)),
-                                            std::int64_t(std::floor(depth / 0.0006)), 7, seed);
+        const std::uint64_t hsh = cell_hash(fast_floor(X.x() / 0.0009), fast_floor(depth / 0.0006), 7, seed);
         echo *= 0.6 + 0.8 * double(hsh & 0xFF) / 255.0;
       }
       if (echo > 0) {
         for (int e = 0; e < kElevation; ++e) {
           const Vec3 Xe = X + ((e - 1) * p.slice_thickness / kElevation) * f.elevation;
-          const std::uint64_t hsh = cell_hash(std::int64_t(std::floor(Xe.x() / kCell)),
-                                              std::int64_t(std::floor(Xe.y() / kCell)),
-                                              std::int64_t(std::floor(Xe.z() / kCell)), seed);
+          const std::uint64_t hsh = cell_hash(fast_floor(Xe.x() * (1 / kCell)), fast_floor(Xe.y() * (1 / kCell)),
+                                              fast_floor(Xe.z() * (1 / kCell)), seed);
           z += table[hsh & (kTable - 1)];
         }
         z *= float(echo / std::sqrt(double(kElevation)));
