@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 
 using namespace palpate;
@@ -130,4 +131,51 @@ TEST(ChargedTissue, BadDefinitionsAreErrorsNamingTheTissue) {
   ASSERT_FALSE(no_file.ok());
   EXPECT_NE(no_file.error().message.find("tissue 'organ'"), std::string::npos) << no_file.error().message;
   EXPECT_NE(no_file.error().message.find("no-such.obj"), std::string::npos) << no_file.error().message;
+}
+
+// An anchor must name a particle of the patch: one past it was accepted and ignored. A long list
+// of anchors loads (duplicates are found through a hash set, not a search per anchor).
+TEST(ChargedTissue, AnchorsOutsideThePatchAreRefused) {
+  const SceneDef scene = scene_of(R"(tissues:
+  - name: skin
+    patch: {width: 0.02, height: 0.02, spacing: 0.001}
+    anchors: [0, 5, 999999]
+)");
+  auto made = make_tissue(scene, 0);
+  ASSERT_FALSE(made.ok());
+  EXPECT_NE(made.error().message.find(":2: tissue 'skin': anchors[2]: 999999 is not a particle of the patch (it has 504: 0..503)"),
+            std::string::npos)
+      << made.error().message;
+  std::string many = "tissues:\n  - name: skin\n    patch: {width: 0.02, height: 0.02, spacing: 0.001}\n    anchors: [";
+  for (int i = 0; i < 200000; ++i) {
+    if (i) many += ',';
+    many += std::to_string(i);
+  }
+  many += "]\n";
+  auto s = parse_scene(many, "t.yaml", PALPATE_DATA_DIR);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_EQ(s->tissues[0].anchors.size(), 200000u);
+  EXPECT_EQ(s->tissues[0].anchors.back(), 199999);
+}
+
+// A step that recovers from numerical trouble (state reset, zero force) says so, so the haptic
+// loop can count it as step_failed; the next good step does not.
+TEST(ChargedTissue, AResetStepReportsItsFailure) {
+  const SceneDef scene = scene_of(R"(tissues:
+  - name: skin
+    patch: {width: 0.02, height: 0.02, spacing: 0.001}
+)");
+  auto made = make_tissue(scene, 0);
+  ASSERT_TRUE(made.ok()) << made.error().message;
+  Tissue& t = **made;
+  ToolState tool;
+  tool.tip = Vec3(0, 0.0005, 0);
+  (void)t.step(tool, 0.001);
+  EXPECT_FALSE(t.last_step_failed());
+  tool.tip = Vec3(std::nan(""), 0, 0);
+  EXPECT_EQ(t.step(tool, 0.001), Vec3::Zero());
+  EXPECT_TRUE(t.last_step_failed());
+  tool.tip = Vec3(0, 0.0005, 0);
+  (void)t.step(tool, 0.001);
+  EXPECT_FALSE(t.last_step_failed());
 }

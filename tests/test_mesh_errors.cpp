@@ -8,6 +8,7 @@
 #include <initializer_list>
 #include <limits>
 #include <random>
+#include <sys/stat.h>
 
 namespace {
 
@@ -350,3 +351,59 @@ TEST(MeshErrors, GarbageNeverCrashes) {
 }
 
 }  // namespace
+
+// A PLY header's element counts are checked against what follows it before assimp reads the file
+// (it trusted them: a 312-byte cube claiming 100,000,000 vertices ran for over a minute and
+// 1.3 GB; claiming 1,000,000 it "read" a mesh the file does not hold).
+TEST(MeshErrors, PlyCountsBeyondTheFileAreRefused) {
+  ScratchDir dir;
+  const std::string cube = palpate::test::read_text(palpate::test::test_mesh("cube.ply"));
+  const auto claiming = [&](const std::string& name, const std::string& from, const std::string& to) {
+    std::string text = cube;
+    text.replace(text.find(from), from.size(), to);
+    return dir.write(name, text);
+  };
+  const auto huge = claiming("huge.ply", "element vertex 8", "element vertex 100000000");
+  EXPECT_EQ(palpate::load_surface(huge).error().message,
+            huge.string() + ":4: element vertex claims 100000000 but the file holds data for at most 18 (54 numbers "
+                            "after the header)");
+  const auto million = claiming("million.ply", "element vertex 8", "element vertex 1000000");
+  EXPECT_NE(palpate::load_surface(million).error().message.find(":4: element vertex claims 1000000"), std::string::npos);
+  const auto faces = claiming("faces.ply", "element face 6", "element face 100000");
+  EXPECT_EQ(palpate::load_surface(faces).error().message,
+            faces.string() + ":8: element face claims 100000 but the file holds data for at most 30 (54 numbers "
+                             "after the header)");
+  const auto negative = claiming("negative.ply", "element face 6", "element face -6");
+  EXPECT_NE(palpate::load_surface(negative).error().message.find(":8: element face: expected a count >= 0, found '-6'"),
+            std::string::npos);
+  // Binary: 8 vertices of 3 floats and 6 quads need at least 8·12 + 6·1 bytes.
+  std::string bin = "ply\nformat binary_little_endian 1.0\nelement vertex 5000\nproperty float x\nproperty float y\n"
+                    "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  bin += std::string(12 * 3 + 1 + 12, '\0');
+  const auto binary = dir.write("binary.ply", bin);
+  EXPECT_EQ(palpate::load_surface(binary).error().message,
+            binary.string() + ":3: element vertex claims 5000 but the file holds data for at most 4 (49 bytes after "
+                              "the header)");
+  // The true counts still load.
+  auto ok = palpate::load_surface(palpate::test::test_mesh("cube.ply"));
+  ASSERT_TRUE(ok.ok()) << ok.error().message;
+  EXPECT_EQ(ok->V.rows(), 8);
+}
+
+// An OBJ's mtllib is read only as a regular file beside the mesh: a FIFO blocked the load forever,
+// /dev/zero was read without end, another directory's file was opened. The mesh loads without it.
+TEST(MeshErrors, ObjMaterialLibrariesOnlyBesideTheMesh) {
+  ScratchDir dir;
+  const std::filesystem::path fifo = dir.path("pipe.mtl");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  dir.write("good.mtl", "newmtl skin\nKd 1 0.8 0.7\n");
+  const std::string tet = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  for (const std::string lib : {"pipe.mtl", "/dev/zero", "/etc/passwd", "../../../../../dev/zero", "good.mtl",
+                                "missing.mtl"}) {
+    const auto obj = dir.write("tet.obj", "mtllib " + lib + "\nusemtl skin\n" + tet);
+    auto m = palpate::load_surface(obj);
+    ASSERT_TRUE(m.ok()) << lib << ": " << m.error().message;
+    EXPECT_EQ(m->V.rows(), 4) << lib;
+    EXPECT_EQ(m->F.rows(), 4) << lib;
+  }
+}

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -646,4 +647,52 @@ TEST(SceneReference, DocExampleSceneParses) {
   auto r = parse_scene(doc.substr(b + 8, e - b - 8), "scene-format.md", PALPATE_SOURCE_DIR "/data/scenes");
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_GE(r->tissues.size(), 2u);
+}
+
+// docs/haptics.md's table of device keys and the loader agree: every key it documents loads at its
+// documented default, and every key the loader takes is documented there.
+TEST(Scene, EveryDeviceKeyDocumentedInHapticsMdLoads) {
+  std::ifstream doc(PALPATE_SOURCE_DIR "/docs/haptics.md");
+  ASSERT_TRUE(doc.good());
+  const auto rec = std::filesystem::temp_directory_path() / "palpate_doc_keys_run.csv";
+  std::ofstream(rec) << "t,tool_x,tool_y,tool_z\n0,0,0,0\n";
+  const auto traj = std::filesystem::temp_directory_path() / "palpate_doc_keys_traj.csv";
+  std::ofstream(traj) << "0,0,0,0\n";
+  std::set<std::string> documented;
+  std::string line;
+  while (std::getline(doc, line)) {
+    if (line.rfind("| `device.", 0) != 0) continue;
+    const size_t end = line.find('`', 10);
+    const std::string key = line.substr(10, end - 10);
+    std::string def = line.substr(line.find('|', end) + 1);
+    def = def.substr(0, def.find('|'));
+    while (!def.empty() && def.front() == ' ') def.erase(0, 1);
+    while (!def.empty() && def.back() == ' ') def.pop_back();
+    if (key == "recording") def = rec.string();
+    if (key == "trajectory") def = traj.string();
+    if (def.empty()) def = "\"\"";
+    documented.insert(key);
+    const std::string yaml = "device:\n  " + std::string(key == "recording" ? "kind: replay\n  " : "") + key + ": " + def +
+                             "\ntissues:\n  - name: a\n    patch: {width: 0.01, height: 0.01, spacing: 0.001}\n";
+    auto s = palpate::parse_scene(yaml, "doc.yaml", ".");
+    EXPECT_TRUE(s.ok()) << "docs/haptics.md documents device." << key << " (default " << def
+                        << ") but the loader says: " << s.error().message;
+  }
+  EXPECT_GE(documented.size(), 14u);
+  for (const auto& p : palpate::param_table(static_cast<const palpate::DeviceDef*>(nullptr)))
+    EXPECT_TRUE(documented.count(p.key)) << "device." << p.key << " loads but docs/haptics.md does not list it";
+}
+
+// A patch too large to build on this machine is refused at load, naming its spacing and saying
+// how much it would take (a 1 m patch at 0.1 mm died of SIGABRT after 6.7 s); 1 m at 10 µm is
+// 1.2e10 particles, past any machine's memory.
+TEST(SceneErrors, APatchTooLargeToBuildIsRefusedNamingItsSpacing) {
+  const std::string m =
+      error_of("tissues:\n  - name: a\n    patch:\n      width: 1\n      height: 1\n      spacing: 0.00001\n");
+  EXPECT_EQ(m.rfind("s.yaml:6: tissues[0].patch.spacing: a 1 m x 1 m patch at 1e-05 m spacing is about 1.2e+10 "
+                    "particles, about 3.5e+03 GB to build, more than this machine's ",
+                    0),
+            0u)
+      << m;
+  EXPECT_NE(m.find("expected a coarser spacing or a smaller patch"), std::string::npos) << m;
 }

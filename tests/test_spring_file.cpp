@@ -4,7 +4,10 @@
 
 #include "io/predictor_file.h"
 
+#include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <limits>
 #include <fstream>
 #include <string>
 
@@ -179,4 +182,65 @@ TEST(SpringPredictorFile, PolicyRecomputesOrStops) {
   m = build_spring_model(net, other, file, PredictorPolicy::load_or_compute, &note);
   ASSERT_TRUE(m.ok());
   EXPECT_TRUE(load_predictor(file, net, other).ok());
+}
+
+namespace {
+// `bytes` with the double at `offset_from_end` doubles before the end set to `v`, and the
+// checksum recomputed (an edit made by hand or by a tool, not a damaged file).
+std::string edited(const std::string& bytes, size_t offset_from_end, double v) {
+  std::string out = bytes;
+  std::memcpy(out.data() + out.size() - 8 * offset_from_end, &v, 8);
+  const std::uint64_t sum = predictor_file::checksum(
+      reinterpret_cast<const unsigned char*>(out.data()) + predictor_file::kHeaderSize,
+      out.size() - predictor_file::kHeaderSize);
+  std::memcpy(out.data() + 24, &sum, 8);
+  return out;
+}
+}  // namespace
+
+// A checksum anyone can recompute does not vouch for the numbers: a predictor whose payload is not
+// finite, not symmetric or has a diagonal that is not positive is refused, saying where.
+TEST(SpringPredictorFile, EditedPayloadWithAValidChecksumIsRefused) {
+  const SpringNetwork net = block_network(3, 3, 3, 0.01, 300.0, 0.1, true, 0.05);
+  const size_t n = net.size();
+  {
+    const SpringModelOptions o = opts(SpringSolver::desbrun);
+    const auto good = temp_file("dense_edit.predictor");
+    ASSERT_TRUE(save_predictor(good, must_build(net, o)).ok());
+    const std::string bytes = read_all(good);
+    const auto bad = temp_file("dense_bad.predictor");
+    // The dense inverse is the payload's last n·n doubles, row-major: entry (i, j) is n·n − (i·n + j)
+    // doubles from the end.
+    auto at = [&](size_t i, size_t j) { return n * n - (i * n + j); };
+    const std::pair<std::string, std::string> cases[] = {
+        {edited(bytes, at(4, 1), std::nan("")), "the dense inverse's entry (4, 1) is not finite"},
+        {edited(bytes, at(0, 0), std::nan("")), "the dense inverse's diagonal entry 0 is nan"},
+        {edited(bytes, at(5, 5), -1e-3), "the dense inverse's diagonal entry 5 is -0.001; expected a positive number"},
+        {edited(bytes, at(2, 7), 0.5), "the dense inverse is not symmetric at (7, 2)"},
+    };
+    for (const auto& [file, want] : cases) {
+      write_all(bad, file);
+      auto r = load_predictor(bad, net, o);
+      ASSERT_FALSE(r.ok()) << want;
+      EXPECT_TRUE(contains(r.error().message, bad.string() + ": corrupted: " + want)) << r.error().message;
+    }
+  }
+  {
+    const SpringModelOptions o = opts(SpringSolver::sparse);
+    const auto good = temp_file("sparse_edit.predictor");
+    ASSERT_TRUE(save_predictor(good, must_build(net, o)).ok());
+    const std::string bytes = read_all(good);
+    const auto bad = temp_file("sparse_bad.predictor");
+    // The sparse factor ends with inv_diag (n doubles), after the nnz values.
+    write_all(bad, edited(bytes, n - 3, 0.0));
+    auto r = load_predictor(bad, net, o);
+    ASSERT_FALSE(r.ok());
+    EXPECT_TRUE(contains(r.error().message, "the sparse factor's 1/D entry 3 is 0; expected a positive number"))
+        << r.error().message;
+    write_all(bad, edited(bytes, n + 1, std::numeric_limits<double>::infinity()));
+    r = load_predictor(bad, net, o);
+    ASSERT_FALSE(r.ok());
+    EXPECT_TRUE(contains(r.error().message, "the sparse factor's entry")) << r.error().message;
+    EXPECT_TRUE(contains(r.error().message, "is not finite")) << r.error().message;
+  }
 }

@@ -7,6 +7,9 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
+#include <atomic>
+#include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <unistd.h>
 
@@ -15,6 +18,40 @@ namespace palpate::cli {
 bool stderr_is_terminal() { return ::isatty(STDERR_FILENO) == 1; }
 
 namespace {
+
+// Ctrl-C (SIGINT) or SIGTERM during a run: the handler only sets these (a lock-free atomic is
+// async-signal-safe); run_scene stops at a tick boundary, ramps the force out, writes the outputs.
+// A second signal of the same kind ends the process at once (SA_RESETHAND).
+std::atomic<bool> g_interrupt{false};
+volatile std::sig_atomic_t g_signal = 0;
+static_assert(std::atomic<bool>::is_always_lock_free);
+
+extern "C" void on_interrupt(int sig) {
+  g_signal = sig;
+  g_interrupt.store(true, std::memory_order_relaxed);
+}
+
+// Installs the handler for SIGINT and SIGTERM for its lifetime, then puts back what was there.
+class InterruptHandler {
+ public:
+  InterruptHandler() {
+    struct sigaction sa {};
+    sa.sa_handler = &on_interrupt;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART | SA_RESETHAND;
+    ::sigaction(SIGINT, &sa, &old_int_);
+    ::sigaction(SIGTERM, &sa, &old_term_);
+  }
+  ~InterruptHandler() {
+    ::sigaction(SIGINT, &old_int_, nullptr);
+    ::sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  InterruptHandler(const InterruptHandler&) = delete;
+  InterruptHandler& operator=(const InterruptHandler&) = delete;
+
+ private:
+  struct sigaction old_int_ {}, old_term_ {};
+};
 
 struct RunArgs {
   std::string scene;
@@ -57,7 +94,18 @@ int run_command(const RunArgs& a) {
       if (f >= 1.0) fmt::print(stderr, "\n");
     };
   }
-  auto result = run_scene(*scene, opt);
+  // A long run says up front what it will write (from a million ticks: 1000 s at 1 ms).
+  const auto ticks = static_cast<std::uint64_t>(std::llround(scene->duration / scene->dt));
+  if (!a.quiet && ticks >= 1'000'000) {
+    const RunFootprint fp = run_footprint(ticks, 15 + 10 * scene->tissues.size());
+    fmt::print(stderr, "palpate run: {} ticks: run.csv about {:.2g} GB, about {:.2g} GB of memory for the "
+               "recorded series\n", ticks, fp.csv_bytes * 1e-9, fp.memory_bytes * 1e-9);
+  }
+  opt.interrupt = &g_interrupt;
+  auto result = [&] {
+    InterruptHandler on_signal;
+    return run_scene(*scene, opt);
+  }();
   if (!result) {
     fmt::print(stderr, "palpate run: {}\n", result.error().message);
     return 1;
@@ -99,9 +147,24 @@ int run_command(const RunArgs& a) {
     }
   }
   if (!s.plot_error.empty()) fmt::print(stderr, "palpate run: no plots: {}\n", s.plot_error);
+  // A tissue whose step failed on every tick (a predictor that resets it each step) sent no force
+  // at all: say so, not only count it.
+  if (s.ticks > 0 && s.safety.step_failed >= s.ticks) {
+    fmt::print(stderr, "palpate run: every one of the {} ticks failed its tissue step (the tissue was reset and "
+               "the force was zero throughout): check the scene's material and predictor\n", s.ticks);
+    return 1;
+  }
   if (!s.frame_error.empty()) {
     fmt::print(stderr, "palpate run: frames: {}\n", s.frame_error);
     return 1;
+  }
+  if (s.interrupted) {
+    const int sig = g_signal ? int(g_signal) : SIGINT;
+    if (bar) fmt::print(stderr, "\n");
+    fmt::print(stderr, "palpate run: interrupted ({}) after {} ticks (t = {:.3f} s); outputs written up to "
+               "the last tick (summary.json: \"interrupted\": true)\n",
+               sig == SIGTERM ? "SIGTERM" : "SIGINT", s.ticks, double(s.ticks) * s.dt);
+    return 128 + sig;
   }
   return 0;
 }

@@ -6,9 +6,13 @@
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 
+#include <cstdio>
 #include <cstring>
+#include <new>
 
-int main(int argc, char** argv) {
+namespace {
+
+int run_main(int argc, char** argv) {
   CLI::App app{"palpate: real-time soft-tissue deformation with force feedback"};
   app.set_version_flag("--version", std::string("palpate ") + palpate::version());
   app.require_subcommand(1);
@@ -37,4 +41,20 @@ int main(int argc, char** argv) {
   }
   CLI11_PARSE(app, argc, argv);
   return 0;
+}
+
+}  // namespace
+
+// Out of memory is an error with a message, never an abort: what a scene asks for is estimated
+// and refused at load where it can be (docs/scene-format.md), and what slips through ends here.
+int main(int argc, char** argv) {
+  try {
+    return run_main(argc, argv);
+  } catch (const std::bad_alloc&) {
+    std::fputs("palpate: out of memory: the scene needs more memory than this machine (or its limit, "
+               "ulimit -v) gives; make it smaller (a coarser spacing, fewer waypoints, a shorter "
+               "duration) and run again\n",
+               stderr);
+    return 3;
+  }
 }

@@ -81,6 +81,9 @@ struct Image {
   const uint8_t* pixel(int x, int y) const { return &rgba[(size_t(y) * width + x) * 4]; }
 };
 
+// The largest image side off-screen drawing makes (render_rgba, frames of `palpate run --frames`).
+inline constexpr int kMaxOffscreenSide = 4096;  // pixels
+
 // Draw the scene off-screen (no window, no GPU). Fails, naming the element and what was
 // expected, on a bad camera (size outside 1..4096 pixels, fov outside (0, 180) degrees, position
 // equal to target, non-finite values), a span whose size is not a multiple of 3, normals not

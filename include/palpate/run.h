@@ -7,6 +7,7 @@
 #include <palpate/safety.h>
 #include <palpate/scene.h>
 
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -30,6 +31,10 @@ struct RunOptions {
   // thread runs (hand-over through SnapshotTissue: the loop never waits for them).
   int frames = 0;
   FrameOptions frame_options;
+  // Set it (from any thread, or a signal handler: a lock-free atomic) to end the run early: it stops
+  // at a tick boundary, the force ramps to zero within the rate limit, and the outputs are written
+  // as for a whole run, up to the last tick run (summary.json: "interrupted": true). Null: never.
+  const std::atomic<bool>* interrupt = nullptr;
 };
 
 struct RunFrame {
@@ -46,7 +51,8 @@ struct RunEvent {
 };
 
 struct RunSummary {
-  size_t ticks = 0;
+  size_t ticks = 0;                               // ticks run (fewer than asked when interrupted)
+  bool interrupted = false;                       // RunOptions::interrupt ended the run early
   double dt = 0;                                  // s
   double step_median = 0, step_p99 = 0, step_max = 0;  // s, wall time of one tick's work
   double max_force = 0;                           // N, largest force sent to the device
@@ -63,6 +69,17 @@ struct RunSummary {
   std::vector<RunFrame> frames;                   // frames written, if asked for
   std::string frame_error;                        // why frames are missing, if they are
 };
+
+// What a run of `ticks` ticks recording `columns` columns writes and holds (estimates): run.csv's
+// size on disk and the memory of the series kept for the plots and the summary. run_scene refuses
+// a run whose series would take more than half the machine's memory or whose run.csv would not fit
+// on the disk, naming the scene's duration; `palpate run` prints it before a long run.
+struct RunFootprint {
+  std::uint64_t ticks = 0;
+  double csv_bytes = 0;     // bytes
+  double memory_bytes = 0;  // bytes
+};
+RunFootprint run_footprint(std::uint64_t ticks, size_t columns);
 
 // Run `scene` for its duration at its fixed tick, with its device; stream `run.csv` (through
 // `run.csv.part`, renamed at the end) and write `summary.json` atomically into the output directory.

@@ -62,6 +62,9 @@ class ForceSafety {
   Vec3 filter(const Vec3& requested, double dt, bool step_ok) noexcept;
   // The same with the watchdog's reason when the tick is not to be trusted.
   Vec3 filter(const Vec3& requested, double dt, TickFault fault) noexcept;
+  // One step of the ramp to zero at stop: the last force shrunk by at most max_force_rate · dt
+  // (zero once within that). Counts nothing; the caller sends it once per tick until it is zero.
+  Vec3 ramp_down(double dt) noexcept;
   const SafetyCounters& counters() const { return counters_; }
   const Vec3& last() const { return last_; }
   // SafetyEvent bits of the last filter() call.

@@ -42,6 +42,7 @@ class SnapshotTissue final : public Tissue {
   // The Tissue interface: forwarded to the inner tissue.
   const std::string& name() const override { return inner_->name(); }
   Vec3 step(const ToolState& tool, double dt) noexcept override;
+  bool last_step_failed() const noexcept override { return inner_->last_step_failed(); }
   std::span<const std::string> figure_names() const override { return inner_->figure_names(); }
   void figures(std::span<double> out) const noexcept override { inner_->figures(out); }
   size_t drain_events(std::span<TissueEvent> out) noexcept override { return inner_->drain_events(out); }

@@ -55,6 +55,9 @@ class Tissue {
   // Advance by dt seconds with the tool where `tool` says; return the force the tissue exerts on
   // the tool (N). Events are appended to the tissue's queue, drained by `drain_events`.
   virtual Vec3 step(const ToolState& tool, double dt) noexcept = 0;
+  // Whether the last step() failed (numerical trouble: the state was reset and the force is an
+  // ordinary zero). The loop counts it as `step_failed` and restarts the force's ramp-in.
+  virtual bool last_step_failed() const noexcept { return false; }
   // Names of the per-tissue figures written as CSV columns; fixed once built.
   virtual std::span<const std::string> figure_names() const = 0;
   // Current values of those figures, out.size() == figure_names().size().

@@ -154,6 +154,8 @@ struct HapticLoop::Impl {
         j_rendered += sl.worker->jacobian();
       } else {
         f_inline += sl.tissue->step(tool, dt);
+        // A step that reset its tissue returns an ordinary zero: count it and restart the ramp.
+        if (sl.tissue->last_step_failed() && fault == TickFault::none) fault = TickFault::step_failed;
         sl.tissue->figures(figs);
       }
     }
@@ -251,7 +253,15 @@ struct HapticLoop::Impl {
         resyncs.inc();
       }
     }
+    // The last word is zero, reached within the rate limit one tick at a time (at most 1 s of
+    // ticks; a device that allows no faster change gets the zero then).
+    for (std::int64_t i = 0; i * period < 1'000'000'000 && !safety.last().isZero(); ++i) {
+      sleep_until_ns(next, spin);
+      device.write(safety.ramp_down(s.dt), Vec3::Zero());
+      next += period;
+    }
     device.write(Vec3::Zero(), Vec3::Zero());
+    fx.set(0), fy.set(0), fz.set(0);
     running.store(false, std::memory_order_release);
   }
 };

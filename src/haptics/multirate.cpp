@@ -42,7 +42,7 @@ void PhysicsWorker::stop() {
 void PhysicsWorker::physics_step(const ToolState& tool) noexcept {
   const Vec3 f = tissue_.step(tool, physics_dt_);
   PhysicsSnapshot& s = out_.write_slot();
-  s.ok = f.allFinite() && tool.tip.allFinite();
+  s.ok = f.allFinite() && tool.tip.allFinite() && !tissue_.last_step_failed();
   if (s.ok) {
     // The model's own stiffness when it offers one, else the secant estimate across its steps.
     Mat3 j;

@@ -85,13 +85,29 @@ struct TimedForce {
   std::int64_t written_ns = 0;
 };
 
+// The nominal maximum force of the smallest device of the family the HD API drives, used when a
+// device reports none (0): the Phantom Omni / Geomagic Touch, "maximum exertable force at nominal
+// (orthogonal arms) position 3.3 N" (3D Systems, Touch haptic device specifications; the Touch X
+// and Phantom Premium models take more, so 3.3 N is within every one of them).
+constexpr double kFamilyMaxForce = 3.3;  // N
+// The HD scheduler's servo rate when the application does not set one (hdSetSchedulerRate; palpate
+// never does): 1000 Hz, so one servo frame is 1 ms.
+constexpr double kServoFrame = 1e-3;  // s
+
 class OpenHapticsDevice final : public Device {
  public:
   OpenHapticsDevice(HdApi api, HHD hhd, DeviceLimits limits) : api_(api), hhd_(hhd), limits_(limits) {
     pose_.fill(DeviceState{});
     force_.fill(TimedForce{});
+    publish_servo_limits();
   }
   ~OpenHapticsDevice() override {
+    // Ramp the force the hand feels down to zero within the rate limit before the servo stops:
+    // the servo heads for zero from now on; wait (bounded) until it has sent zero.
+    zeroing_.store(true);
+    const double ramp = std::min(1.0, servo_max_force_.load() / std::max(1e-9, servo_max_step_.load()) * kServoFrame);
+    const std::int64_t until = monotonic_ns() + static_cast<std::int64_t>((ramp + 0.05) * 1e9);
+    while (running_.load() && !zeroed_.load() && monotonic_ns() < until) sleep_until_ns(monotonic_ns() + 500'000, 0);
     stopping_.store(true);
     api_.hdStopScheduler();
     if (handle_) api_.hdUnschedule(handle_);
@@ -111,6 +127,7 @@ class OpenHapticsDevice final : public Device {
                    kScriptedHint};
     // The device's own nominal limits, read once in the scheduler; the scene may only lower them.
     api_.hdScheduleSynchronous(&OpenHapticsDevice::query_limits, this, HD_DEFAULT_SCHEDULER_PRIORITY);
+    publish_servo_limits();
     return {};
   }
 
@@ -146,8 +163,23 @@ class OpenHapticsDevice final : public Device {
     self.force_.update();
     const TimedForce& tf = self.force_.read();
     Vec3 f = tf.force;
+    // The backend's own guard, whatever the caller wrote (a program on the public API may write
+    // any force): zero when stale or not finite or stopping, clamped to the maximum, and changed by
+    // at most max_force_rate per servo frame (the haptic loop's clock and the servo's are not
+    // synchronised: two of its ticks may land between two frames). So the stale zero and the zero
+    // at stop are ramps too.
     const bool stale = monotonic_ns() - tf.written_ns > 50'000'000;
-    if (stale || !f.allFinite() || self.stopping_.load(std::memory_order_relaxed)) f.setZero();
+    if (stale || !f.allFinite() || self.zeroing_.load(std::memory_order_relaxed)) f.setZero();
+    const double max_force = self.servo_max_force_.load(std::memory_order_relaxed);
+    const double max_step = self.servo_max_step_.load(std::memory_order_relaxed);
+    if (const double n = f.norm(); n > max_force) f *= max_force / n;
+    const Vec3 change = f - self.sent_;
+    if (const double c = change.norm(); c > max_step) f = self.sent_ + change * (max_step / c);
+    if (!f.allFinite()) f.setZero();  // (only from a NaN limit; never sent)
+    if (const double n = f.norm(); n > max_force) f *= max_force / n;
+    self.sent_ = f;
+    if (self.zeroing_.load(std::memory_order_relaxed) && f.isZero()) self.zeroed_.store(true);
+    self.running_.store(true, std::memory_order_relaxed);
     const double fd[3] = {f.x(), f.y(), f.z()};
     hd.hdSetDoublev(HD_CURRENT_FORCE, fd);
     hd.hdEndFrame(self.hhd_);
@@ -172,15 +204,29 @@ class OpenHapticsDevice final : public Device {
     self.api_.hdGetDoublev(HD_NOMINAL_MAX_FORCE, &max_force);
     self.api_.hdGetDoublev(HD_NOMINAL_MAX_STIFFNESS, &stiffness);
     self.api_.hdGetDoublev(HD_NOMINAL_MAX_DAMPING, &damping);
-    if (max_force > 0) self.limits_.max_force = std::min(self.limits_.max_force, max_force);
+    // A device that reports no maximum (0, or garbage) gets its family's documented one: a scene
+    // may ask for up to 50 N, which no Touch can take.
+    if (!(max_force > 0) || !std::isfinite(max_force)) max_force = kFamilyMaxForce;
+    self.limits_.max_force = std::min(self.limits_.max_force, max_force);
     if (stiffness > 0) self.limits_.stiffness = std::min(self.limits_.stiffness, stiffness * 1e3);
     if (damping > 0) self.limits_.damping = std::min(self.limits_.damping, damping * 1e3);
     return HD_CALLBACK_DONE;
   }
 
+  // The servo's copy of the limits (atomics: set before the scheduler starts and after the query).
+  void publish_servo_limits() noexcept {
+    const double mf = std::isfinite(limits_.max_force) ? std::max(0.0, limits_.max_force) : 0.0;
+    const double rate = std::isfinite(limits_.max_force_rate) ? std::max(0.0, limits_.max_force_rate) : 0.0;
+    servo_max_force_.store(mf);
+    servo_max_step_.store(rate * kServoFrame);
+  }
+
   HdApi api_;
   HHD hhd_;
   DeviceLimits limits_;
+  std::atomic<double> servo_max_force_{0}, servo_max_step_{0};  // N, N per servo frame
+  Vec3 sent_ = Vec3::Zero();                                    // servo thread only: last sent
+  std::atomic<bool> zeroing_{false}, zeroed_{false}, running_{false};
   HDSchedulerHandle handle_ = 0;
   TripleBuffer<DeviceState> pose_;  // servo → haptic thread
   TripleBuffer<TimedForce> force_;  // haptic thread → servo

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstring>
 #include <fcntl.h>
+#include <string_view>
 #include <system_error>
 #include <unistd.h>
 
@@ -66,18 +67,30 @@ bool Recorder::push_event(const RecorderEvent& e) noexcept {
   return false;
 }
 
+// `buf` holds whole lines. A write that fails part-way (a full disk takes what fits, then says
+// ENOSPC) is cut back to its last whole line, so the file never ends in a torn row; after a failure
+// nothing more is written (no row after a gap).
 bool Recorder::write_out(std::string& buf) {
+  if (write_failed_.load(std::memory_order_relaxed)) {
+    buf.clear();
+    return false;
+  }
   size_t off = 0;
   while (off < buf.size()) {
     const ssize_t n = ::write(fd_, buf.data() + off, buf.size() - off);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
       write_failed_.store(true);
+      const size_t nl = std::string_view(buf.data(), off).rfind('\n');
+      const size_t keep = nl == std::string_view::npos ? 0 : nl + 1;
+      file_bytes_ += keep;
+      if (keep < off) (void)::ftruncate(fd_, static_cast<off_t>(file_bytes_));
       buf.clear();
       return false;
     }
     off += static_cast<size_t>(n);
   }
+  file_bytes_ += buf.size();
   buf.clear();
   return true;
 }

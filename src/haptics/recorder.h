@@ -74,6 +74,7 @@ class Recorder {
   std::vector<ColumnFormat> formats_;
   RecorderOptions options_;
   int fd_ = -1;
+  std::uint64_t file_bytes_ = 0;  // bytes in the file: whole lines only (writer thread)
   std::unique_ptr<SpscRing<double>> rows_;
   std::unique_ptr<SpscRing<RecorderEvent>> event_ring_;
   std::thread writer_;

@@ -1,54 +1,29 @@
 // replay_device.cpp — the replay backend: a run's CSV read once, then played back tick for tick.
 #include <palpate/device.h>
 
+#include "io/csv_rows.h"
+#include "io/text_lines.h"
+
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdlib>
-#include <fstream>
 #include <string_view>
 
 namespace palpate {
 
-namespace {
-
-std::vector<std::string_view> split_commas(std::string_view line) {
-  std::vector<std::string_view> out;
-  size_t start = 0;
-  for (;;) {
-    const size_t comma = line.find(',', start);
-    out.push_back(line.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start));
-    if (comma == std::string_view::npos) break;
-    start = comma + 1;
-  }
-  return out;
-}
-
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-
-}  // namespace
-
 Result<std::vector<RecordedSample>> load_recording_csv(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  if (!in) return Error{file.string() + ": cannot open recording"};
-  std::string line;
-  int lineno = 0;
+  auto rows = io::CsvRows::open(file, "recording");
+  if (!rows) return rows.error();
+  std::vector<std::string_view> fields;
   // Header: find the columns by name.
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (!trim(line).empty() && line[0] != '#') break;
-  }
-  if (trim(line).empty() || line[0] == '#')
+  if (!rows->next(fields))
     return Error{file.string() + ": recording is empty (expected a header t,tool_x,tool_y,tool_z,...)"};
-  std::vector<std::string> header;  // owned: `line` is reused for the rows
-  for (std::string_view h : split_commas(line)) header.emplace_back(h);
+  std::vector<std::string> header(fields.begin(), fields.end());  // owned: the line is reused
   auto find = [&](std::string_view name) -> int {
     for (size_t i = 0; i < header.size(); ++i)
-      if (trim(header[i]) == name) return int(i);
+      if (header[i] == name) return int(i);
     return -1;
   };
   static constexpr std::array<const char*, 4> kNeeded = {"t", "tool_x", "tool_y", "tool_z"};
@@ -56,7 +31,7 @@ Result<std::vector<RecordedSample>> load_recording_csv(const std::filesystem::pa
   for (size_t i = 0; i < kNeeded.size(); ++i) {
     need[i] = find(kNeeded[i]);
     if (need[i] < 0)
-      return Error{file.string() + ":" + std::to_string(lineno) + ": no column '" + kNeeded[i] +
+      return Error{rows->where() + "no column '" + kNeeded[i] +
                    "' in the header (a recording needs t, tool_x, tool_y, tool_z: a run's run.csv)"};
   }
   const std::array<int, 4> quat = {find("tool_qw"), find("tool_qx"), find("tool_qy"), find("tool_qz")};
@@ -64,24 +39,17 @@ Result<std::vector<RecordedSample>> load_recording_csv(const std::filesystem::pa
   const int buttons = find("buttons");
 
   std::vector<RecordedSample> samples;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (trim(line).empty() || line[0] == '#') continue;
-    const auto fields = split_commas(line);
+  while (rows->next(fields)) {
     auto number = [&](int col, double& out) -> Status {
       if (col >= int(fields.size()))
-        return Error{file.string() + ":" + std::to_string(lineno) + ": row has " +
-                     std::to_string(fields.size()) + " fields, column '" +
-                     std::string(trim(header[size_t(col)])) + "' is number " + std::to_string(col + 1)};
-      const std::string text(trim(fields[size_t(col)]));
-      char* end = nullptr;
-      out = std::strtod(text.c_str(), &end);
-      if (text.empty() || end != text.c_str() + text.size())
-        return Error{file.string() + ":" + std::to_string(lineno) + ": column '" +
-                     std::string(trim(header[size_t(col)])) + "': expected a number, got '" + text + "'"};
+        return Error{rows->where() + "row has " + std::to_string(fields.size()) + " fields, column '" +
+                     header[size_t(col)] + "' is number " + std::to_string(col + 1)};
+      const std::string_view text = fields[size_t(col)];
+      if (!io::csv_number(text, out))
+        return Error{rows->where() + "column '" + header[size_t(col)] + "': expected a number, got '" +
+                     io::printable(text) + "'"};
       if (!std::isfinite(out))
-        return Error{file.string() + ":" + std::to_string(lineno) + ": column '" +
-                     std::string(trim(header[size_t(col)])) + "' is NaN or infinite"};
+        return Error{rows->where() + "column '" + header[size_t(col)] + "' is NaN or infinite"};
       return {};
     };
     RecordedSample s;
@@ -95,18 +63,17 @@ Result<std::vector<RecordedSample>> load_recording_csv(const std::filesystem::pa
       for (size_t i = 0; i < 4; ++i)
         if (Status st = number(quat[i], q[i]); !st) return st.error();
       s.orientation = Quat(q[0], q[1], q[2], q[3]);
-      if (s.orientation.norm() < 1e-9)
-        return Error{file.string() + ":" + std::to_string(lineno) + ": orientation quaternion is zero"};
+      if (s.orientation.norm() < 1e-9) return Error{rows->where() + "orientation quaternion is zero"};
       s.orientation.normalize();
     }
     if (buttons >= 0) {
       double b = 0;
       if (Status st = number(buttons, b); !st) return st.error();
-      s.buttons = static_cast<std::uint32_t>(std::max(0.0, b));
+      s.buttons = static_cast<std::uint32_t>(std::clamp(b, 0.0, 4294967295.0));
     }
     if (!samples.empty() && s.t < samples.back().t)
-      return Error{file.string() + ":" + std::to_string(lineno) + ": time " + std::to_string(s.t) +
-                   " s goes back (previous " + std::to_string(samples.back().t) + " s)"};
+      return Error{rows->where() + "time " + fmt::format("{}", s.t) + " s goes back (previous " +
+                   fmt::format("{}", samples.back().t) + " s)"};
     samples.push_back(s);
   }
   if (samples.empty()) return Error{file.string() + ": recording has a header but no rows"};

@@ -22,9 +22,69 @@
 #include <optional>
 #include <system_error>
 #include <thread>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 namespace palpate {
+
+namespace {
+
+// Whether `name` is one of the files a run writes into its output directory (or their temporary
+// forms): run.csv, summary.json, the plots and their script, data and log, frame_NNN.png, and
+// each of these + ".part" or ".tmp-...".
+bool is_run_output(const std::string& name) {
+  static const char* const kFixed[] = {"run.csv", "summary.json", "force_time.png", "force_depth.png",
+                                       "force.dat", "plots.gp", "plots.log"};
+  for (const char* f : kFixed)
+    if (name == f || name.rfind(std::string(f) + ".tmp-", 0) == 0) return true;
+  if (const size_t tmp = name.find(".tmp-"); tmp != std::string::npos && name.rfind("frame_", 0) == 0)
+    return is_run_output(name.substr(0, tmp));
+  if (name.size() > 5 && name.compare(name.size() - 5, 5, ".part") == 0)
+    return is_run_output(name.substr(0, name.size() - 5));
+  if (name.rfind("frame_", 0) == 0 && name.size() > 10 && name.compare(name.size() - 4, 4, ".png") == 0)
+    return std::all_of(name.begin() + 6, name.end() - 4, [](char c) { return c >= '0' && c <= '9'; });
+  return false;
+}
+
+// A run starts with none of an earlier run's outputs beside it: a new run.csv next to an old
+// summary.json or old plots (a run killed while plotting) would be read as one run.
+Status clear_run_outputs(const std::filesystem::path& out) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(out, ec)) return {};
+  for (const auto& e : fs::directory_iterator(out, ec)) {
+    const std::string name = e.path().filename().string();
+    if (!is_run_output(name) || !e.is_regular_file(ec)) continue;
+    if (!fs::remove(e.path(), ec) && ec)
+      return Error{e.path().string() + ": cannot remove an earlier run's output: " + ec.message()};
+  }
+  if (ec) return Error{out.string() + ": cannot list the output directory: " + ec.message()};
+  return {};
+}
+
+std::string gigabytes(double bytes) { return fmt::format("{:.3g} GB", bytes * 1e-9); }
+
+// Bytes free for a new file at `dir` (its nearest existing ancestor); -1 when unknown.
+double free_bytes(std::filesystem::path dir) {
+  std::error_code ec;
+  while (!dir.empty() && !std::filesystem::exists(dir, ec) && dir.has_parent_path() && dir != dir.parent_path())
+    dir = dir.parent_path();
+  struct statvfs v {};
+  if (dir.empty() || ::statvfs(dir.c_str(), &v) != 0) return -1;
+  return double(v.f_bavail) * double(v.f_frsize);
+}
+
+}  // namespace
+
+RunFootprint run_footprint(std::uint64_t ticks, size_t columns) {
+  RunFootprint f;
+  f.ticks = ticks;
+  // run.csv: ~6 characters a column (95 B a tick with the 16 columns of one charged tissue);
+  // in memory, the 12 columns kept for the plots and the summary, 8 bytes each.
+  f.csv_bytes = double(ticks) * 6.0 * double(columns);
+  f.memory_bytes = double(ticks) * 12.0 * 8.0;
+  return f;
+}
 
 Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options) {
   std::vector<std::unique_ptr<Tissue>> tissues;
@@ -46,10 +106,15 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     for (auto& t : tissues) stack.push_back(t.get());
     link_layers(stack);  // stacked layers press on each other (scene order: outside in)
   }
+  const std::string where = scene.file.empty() ? std::string("scene") : scene.file.string();
+  // A headless run goes as fast as it can (2,000 ticks while a Touch's servo ran 104 frames): the
+  // device in the hand gets forces of simulated, not real, time. Refused before it is opened.
+  if (scene.device.kind == "openhaptics" && !options.realtime)
+    return Error{where + ": device kind 'openhaptics' needs a realtime run (`palpate run --realtime`, "
+                         "RunOptions::realtime): a headless run is not paced by the wall clock"};
   auto device = make_device(scene);
   if (!device) return device.error();
   Device& dev = **device;
-  const std::string where = scene.file.empty() ? std::string("scene") : scene.file.string();
   if (!(scene.dt > 0)) return Error{where + ": dt must be > 0 s"};
   const double dt = scene.dt;
   const auto ticks = static_cast<std::uint64_t>(std::llround(scene.duration / dt));
@@ -57,6 +122,13 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   if (options.frames < 0 || std::uint64_t(options.frames) > ticks)
     return Error{where + ": frames must be between 0 and the run's " + std::to_string(ticks) +
                  " ticks, not " + std::to_string(options.frames)};
+  // Frames are drawn off-screen, at most kMaxOffscreenSide a side: say so before the run, naming
+  // the scene's key (the loader allows larger cameras, for the viewer's window).
+  if (options.frames > 0 && scene.camera)
+    for (const auto& [key, side] : {std::pair{"camera.width", scene.camera->width}, std::pair{"camera.height", scene.camera->height}})
+      if (side > kMaxOffscreenSide)
+        return Error{where + ": " + key + ": " + std::to_string(side) + " pixels is more than frames can be drawn "
+                     "off-screen (at most " + std::to_string(kMaxOffscreenSide) + "); lower it to run with --frames"};
 
   // Frames: each tissue hands its drawn state over through a SnapshotTissue (allocation-free on
   // the stepping thread); frame k is taken after frame_target(k) ticks have run.
@@ -104,6 +176,26 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
       frames.push_back({tool.time, file});
   };
 
+  // What the run will write and hold, checked before the first tick: a run that cannot fit in
+  // memory or on the disk is refused here, not hours in.
+  {
+    size_t columns = 15;
+    for (const auto& t : tissues) columns += t->figure_names().size();
+    const RunFootprint fp = run_footprint(ticks, columns);
+    const double memory = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGE_SIZE));
+    const std::string what = fmt::format("duration {} s at dt {} s is {} ticks", scene.duration, dt, ticks);
+    if (memory > 0 && fp.memory_bytes > 0.5 * memory)
+      return Error{where + ": duration: " + what + ", whose recorded series need about " +
+                   gigabytes(fp.memory_bytes) + " of memory, more than half of this machine's " +
+                   gigabytes(memory) + "; shorten duration or raise dt"};
+    const double disk = free_bytes(out);
+    if (disk >= 0 && fp.csv_bytes > disk)
+      return Error{where + ": duration: " + what + ": run.csv would be about " + gigabytes(fp.csv_bytes) +
+                   ", more than the " + gigabytes(disk) + " free at " + out.string() +
+                   "; shorten duration, raise dt or choose another output directory"};
+  }
+  if (Status s = clear_run_outputs(out); !s) return s.error();
+
   LoopSettings ls;
   ls.dt = dt;
   ls.realtime = options.realtime;
@@ -132,6 +224,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
 
   // --- the run: the loop's own thread paced by the wall clock, or ticks as fast as they go here.
   size_t next_frame = 0;
+  auto interrupted = [&] { return options.interrupt && options.interrupt->load(std::memory_order_relaxed); };
   if (options.realtime) {
     // This thread reports progress and draws the frames; the haptic thread never waits for it.
     // A frame is requested a few ticks ahead of its target (the request is served by the next
@@ -146,6 +239,10 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     std::vector<char> got(snaps.size(), 0);
     auto last_progress = std::chrono::steady_clock::now();
     for (LoopStats st = loop.stats(); st.running; st = loop.stats()) {
+      if (interrupted()) {
+        loop.stop();  // at a tick boundary; the loop ramps the force to zero before it returns
+        break;
+      }
       const auto now = std::chrono::steady_clock::now();
       if (options.progress && now - last_progress > std::chrono::milliseconds(50)) {
         options.progress(double(st.ticks) / double(std::max<std::uint64_t>(1, ticks)));
@@ -173,20 +270,30 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
       std::this_thread::sleep_for(std::chrono::milliseconds(next_frame < nframes ? 1 : 50));
     }
     loop.wait();
-    for (; next_frame < nframes; ++next_frame) take_frame(next_frame, true);
+    if (loop.stats().ticks == ticks)
+      for (; next_frame < nframes; ++next_frame) take_frame(next_frame, true);
     if (options.progress) options.progress(1.0);
   } else {
+    // Ticks in runs of at most 100, looking at the interrupt between them; false when it came.
+    auto run_ticks = [&](std::uint64_t n) {
+      for (std::uint64_t i = 0; i < n; i += 100) {
+        if (interrupted()) return false;
+        loop.run_headless(std::min<std::uint64_t>(100, n - i));
+      }
+      return true;
+    };
     const std::uint64_t chunk = std::max<std::uint64_t>(1, ticks / 100);
     for (std::uint64_t done = 0; done < ticks;) {
       std::uint64_t n = std::min(chunk, ticks - done);
       if (next_frame < nframes) n = std::min(n, frame_target(next_frame) - done);
       if (next_frame < nframes && done + n == frame_target(next_frame)) {
-        if (n > 1) loop.run_headless(n - 1);
+        if (n > 1 && !run_ticks(n - 1)) break;
+        if (interrupted()) break;
         for (SnapshotTissue* t : snaps) t->request();
         loop.run_headless(1);
         take_frame(next_frame++, true);
-      } else {
-        loop.run_headless(n);
+      } else if (!run_ticks(n)) {
+        break;
       }
       done += n;
       if (options.progress) options.progress(double(done) / double(ticks));
@@ -198,6 +305,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   // --- outputs.
   RunSummary summary;
   summary.ticks = st.ticks;
+  summary.interrupted = st.ticks < ticks;
   summary.dt = dt;
   summary.step_median = st.step.median;
   summary.step_p99 = st.step.p99;
@@ -222,6 +330,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   j["scene_file"] = scene.file.string();
   j["palpate_version"] = version();
   j["ticks"] = st.ticks;
+  j["interrupted"] = summary.interrupted;  // true: stopped early (a signal); outputs up to the last tick
   j["dt_s"] = dt;
   j["duration_s"] = double(st.ticks) * dt;
   j["realtime"] = options.realtime;

@@ -83,4 +83,14 @@ Vec3 ForceSafety::filter(const Vec3& requested, double dt, TickFault fault) noex
   return f;
 }
 
+Vec3 ForceSafety::ramp_down(double dt) noexcept {
+  const double max_step = std::max(0.0, limits_.max_force_rate) * dt;
+  const double n = last_.norm();
+  if (!std::isfinite(n) || n <= max_step)
+    last_.setZero();
+  else
+    last_ *= (n - max_step) / n;
+  return last_;
+}
+
 }  // namespace palpate

@@ -2,10 +2,13 @@
 // (positions linearly, needle orientations by slerp).
 #include <palpate/device.h>
 
+#include "io/csv_rows.h"
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <cstdlib>
+#include <locale>
 #include <sstream>
 
 namespace palpate {
@@ -13,6 +16,7 @@ namespace palpate {
 namespace {
 std::string fmt_number(double x) {
   std::ostringstream ss;
+  ss.imbue(std::locale::classic());  // "0.5", whatever the process's locale
   ss << x;
   return ss.str();
 }
@@ -71,34 +75,29 @@ bool ScriptedDevice::read(double t, DeviceState& out) noexcept {
 void ScriptedDevice::write(const Vec3& force, const Vec3&) noexcept { last_force_ = force; }
 
 Result<std::vector<Waypoint>> load_trajectory_csv(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  if (!in) return Error{file.string() + ": cannot open trajectory file"};
+  auto rows = io::CsvRows::open(file, "trajectory file");
+  if (!rows) return rows.error();
   std::vector<Waypoint> points;
-  std::string line;
-  int lineno = 0;
+  std::vector<std::string_view> fields;
   bool header_allowed = true;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (line.empty() || line[0] == '#') continue;
-    std::replace(line.begin(), line.end(), ',', ' ');
-    const auto where = [&] { return file.string() + ":" + std::to_string(lineno) + ": "; };
-    // strtod, not >>: it reads "nan" and "inf", which are then refused by name.
+  // Fields at commas or blanks; the numbers are the leading fields (std::from_chars: "nan" and
+  // "inf" are read, then refused by name).
+  while (rows->next(fields, /*whitespace_too=*/true)) {
+    const auto where = [&] { return rows->where(); };
     double v[8];
-    int n = 0;
-    const char* p = line.c_str();
-    for (; n < 8; ++n) {
-      char* end = nullptr;
-      v[n] = std::strtod(p, &end);
-      if (end == p) break;
-      p = end;
-    }
+    size_t n = 0;
+    while (n < 8 && n < fields.size() && io::csv_number(fields[n], v[n])) ++n;
     const bool first = header_allowed;
     header_allowed = false;
     if (n == 0 && first) continue;  // a header line such as "t,x,y,z"
-    while (*p == ' ' || *p == '\t' || *p == '\r') ++p;
-    if (*p != '\0' && n >= 4)
-      return Error{where() + "unexpected '" + std::string(p) +
-                   "' after the numbers; expected t,x,y,z or t,x,y,z,dx,dy,dz"};
+    if (n < fields.size() && n >= 4) {
+      std::string rest;
+      for (size_t i = n; i < fields.size(); ++i) {
+        if (i > n) rest += ' ';
+        rest += fields[i];
+      }
+      return Error{where() + "unexpected '" + rest + "' after the numbers; expected t,x,y,z or t,x,y,z,dx,dy,dz"};
+    }
     if (n != 4 && n != 7)
       return Error{where() + "expected four numbers t,x,y,z (s, m, m, m) or seven t,x,y,z,dx,dy,dz "
                              "(a needle direction), got " + std::to_string(n) +

@@ -4,6 +4,8 @@
 #include <fmt/format.h>
 
 #include <cstdlib>
+#include <cstring>
+#include <fstream>
 #include <sys/wait.h>
 
 namespace palpate {
@@ -28,6 +30,27 @@ std::string shell_quote(const std::string& s) {
   std::string q = "'";
   for (char c : s) q += (c == '\'') ? std::string("'\\''") : std::string(1, c);
   return q + "'";
+}
+
+// Whether `file` is a whole PNG: the signature first and the IEND chunk last. gnuplot may exit 0
+// on a full disk, leaving a PNG of 0 bytes or one cut short: such a file is never put in place.
+bool whole_png(const std::filesystem::path& file, std::string& why) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return why = "missing", false;
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  static constexpr unsigned char kSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  static constexpr unsigned char kEnd[12] = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xae, 0x42, 0x60, 0x82};
+  if (size < std::streamoff(sizeof kSig + sizeof kEnd)) return why = fmt::format("{} bytes", size), false;
+  unsigned char head[8], tail[12];
+  in.seekg(0);
+  in.read(reinterpret_cast<char*>(head), sizeof head);
+  in.seekg(size - std::streamoff(sizeof tail));
+  in.read(reinterpret_cast<char*>(tail), sizeof tail);
+  if (!in || std::memcmp(head, kSig, sizeof kSig) != 0) return why = "not a PNG", false;
+  if (std::memcmp(tail, kEnd, sizeof kEnd) != 0)
+    return why = fmt::format("{} bytes without the PNG's end chunk (IEND)", size), false;
+  return true;
 }
 
 }  // namespace
@@ -97,12 +120,25 @@ Status plot_run(const std::filesystem::path& dir, const std::string& title, cons
   const std::string cmd =
       "gnuplot " + shell_quote(script.string()) + " 2>" + shell_quote((dir / "plots.log").string());
   const int rc = std::system(cmd.c_str());
-  if (rc != 0 || !WIFEXITED(rc) || WEXITSTATUS(rc) != 0)
+  std::error_code ec;
+  auto remove_parts = [&] {
+    for (const auto& png : {png_t, png_d}) std::filesystem::remove(png.string() + ".part", ec);
+  };
+  if (rc != 0 || !WIFEXITED(rc) || WEXITSTATUS(rc) != 0) {
+    remove_parts();
     return Error{fmt::format("gnuplot failed on {} (exit {}); see {} — is gnuplot installed? "
                              "(scripts/install-deps installs it)",
                              script.string(), WIFEXITED(rc) ? WEXITSTATUS(rc) : -1,
                              (dir / "plots.log").string())};
-  std::error_code ec;
+  }
+  for (const auto& png : {png_t, png_d}) {
+    std::string why;
+    if (!whole_png(png.string() + ".part", why)) {
+      remove_parts();
+      return Error{fmt::format("{}: gnuplot exited 0 but wrote {} (disk full?); no plots written; see {}",
+                               png.string(), why, (dir / "plots.log").string())};
+    }
+  }
   std::filesystem::rename(png_t.string() + ".part", png_t, ec);
   if (!ec) std::filesystem::rename(png_d.string() + ".part", png_d, ec);
   if (ec) return Error{dir.string() + ": cannot move finished plots into place: " + ec.message()};

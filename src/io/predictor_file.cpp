@@ -10,7 +10,9 @@
 
 #include <palpate/spring.h>
 
+#include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -239,8 +241,29 @@ Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const 
   SpringPredictor p;
   p.kind = options.solver;
   p.n = static_cast<int>(n);
+  // The numbers themselves, not only the checksum (which anyone editing the file can recompute):
+  // A = M + hγ + h·D + h²·K is symmetric positive definite, so A⁻¹ is symmetric with a positive
+  // diagonal, and so is D of A's LDLᵀ; a NaN here reset the tissue on every tick.
   if (p.kind == SpringSolver::desbrun) {
     if (!r.get_array(p.inverse, n * n)) return Error{where + "corrupted: the dense inverse is short"};
+    double scale = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const double d = p.inverse[i * n + i];
+      if (!std::isfinite(d) || !(d > 0))
+        return Error{where + "corrupted: the dense inverse's diagonal entry " + std::to_string(i) + " is " + num(d) +
+                     "; expected a positive number"};
+      scale = std::max(scale, d);
+    }
+    for (size_t i = 0; i < n; ++i)
+      for (size_t j = 0; j < i; ++j) {
+        const double a = p.inverse[i * n + j], b = p.inverse[j * n + i];
+        if (!std::isfinite(a) || !std::isfinite(b))
+          return Error{where + "corrupted: the dense inverse's entry (" + std::to_string(i) + ", " + std::to_string(j) +
+                       ") is not finite"};
+        if (std::abs(a - b) > 1e-9 * scale)
+          return Error{where + "corrupted: the dense inverse is not symmetric at (" + std::to_string(i) + ", " +
+                       std::to_string(j) + "): " + num(a) + " and " + num(b)};
+      }
   } else {
     std::uint64_t nnz;
     if (!r.get(nnz) || !r.get_array(p.perm, n) || !r.get_array(p.col_start, n + 1) || !r.get_array(p.row, nnz) ||
@@ -255,6 +278,13 @@ Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const 
       for (int q = p.col_start[c]; q < p.col_start[c + 1]; ++q)
         if (p.row[static_cast<size_t>(q)] <= static_cast<int>(c) || static_cast<std::uint64_t>(p.row[static_cast<size_t>(q)]) >= n)
           return Error{where + "corrupted: the sparse factor has an entry outside its lower triangle"};
+    for (size_t q = 0; q < p.value.size(); ++q)
+      if (!std::isfinite(p.value[q]))
+        return Error{where + "corrupted: the sparse factor's entry " + std::to_string(q) + " is not finite"};
+    for (size_t i = 0; i < n; ++i)
+      if (!std::isfinite(p.inv_diag[i]) || !(p.inv_diag[i] > 0))
+        return Error{where + "corrupted: the sparse factor's 1/D entry " + std::to_string(i) + " is " +
+                     num(p.inv_diag[i]) + "; expected a positive number"};
     std::vector<char> seen(n, 0);
     for (int v : p.perm) {
       if (v < 0 || static_cast<std::uint64_t>(v) >= n || seen[static_cast<size_t>(v)])

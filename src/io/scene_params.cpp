@@ -49,6 +49,16 @@ std::span<const Param<DeviceDef>> param_table(const DeviceDef*) {
       {"ramp_in", &D::ramp_in, 0.0, 10.0, "s", "forces ramp in from zero over this time at the start"},
       {"stiffness", &D::stiffness, 0.0, 1e5, "N/m", "device's nominal maximum stiffness (virtual coupling)"},
       {"damping", &D::damping, 0.0, 1e3, "N·s/m", "device's nominal maximum damping"},
+      {"coupling", &D::coupling, 0, 0, "",
+       "force rendering: the force on the HIP (direct), or a spring-damper to a tool proxy the tissues push "
+       "(virtual)", "direct|virtual"},
+      {"proxy_mass", &D::proxy_mass, 1e-6, 1.0, "kg", "virtual coupling: mass of the tool proxy"},
+      {"overrun_margin", &D::overrun_margin, 0.0, 0.1, "s",
+       "watchdog: a realtime tick's work this far past its deadline sends zero force"},
+      {"stall_timeout", &D::stall_timeout, 0.001, 10.0, "s",
+       "watchdog: a physics thread silent this long sends zero force"},
+      {"hd_library", &D::hd_library, 0, 0, "", "openhaptics: the HD library (file name or path) loaded at run time"},
+      {"hd_device", &D::hd_device, 0, 0, "", "openhaptics: HD device configuration name (\"\" = the default device)"},
   };
   return table;
 }

@@ -6,14 +6,17 @@
 #include "io/mesh_io.h"
 #include "io/text_lines.h"
 
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
+#include <iterator>
 #include <cstring>
 #include <fstream>
 #include <system_error>
@@ -38,8 +41,21 @@ struct PositionHash {
   }
 };
 
-// assimp 5.2's PLY reader loops forever on a header without "end_header": check the header
-// ourselves before handing the file over.
+// Bytes of a PLY scalar type; 0 for an unknown name.
+size_t ply_type_size(std::string_view t) {
+  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+  if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+  if (t == "double" || t == "float64") return 8;
+  return 0;
+}
+
+// assimp 5.2's PLY reader loops forever on a header without "end_header", and trusts the header's
+// element counts (a 318-byte cube claiming 100,000,000 vertices ran for a minute and 1.3 GB;
+// claiming fewer, it "read" vertices the file does not have): check the header ourselves, and
+// every count against what the file holds after it, before handing the file over (as the OFF and
+// Gmsh readers do). Each element needs at least one number per property (a list, its count)
+// in ASCII, and at least its properties' bytes (a list, its count's) in binary.
 Status check_ply_header(const std::filesystem::path& file) {
   std::ifstream in(file, std::ios::binary);
   std::string line;
@@ -48,14 +64,70 @@ Status check_ply_header(const std::filesystem::path& file) {
     while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.pop_back();
     return line;
   };
+  struct Element {
+    std::string name;
+    unsigned long long count = 0;
+    size_t numbers = 0, bytes = 0;  // at least, per element
+    int line = 0;
+  };
+  std::vector<Element> elements;
+  bool ascii = false;
+  const std::string name = file.string();
   while (std::getline(in, line)) {
     ++number;
-    if (number == 1 && trimmed() != "ply")
-      return Error{fmt::format("{}:1: expected the PLY magic line 'ply'", file.string())};
-    if (trimmed() == "end_header") return {};
+    if (number == 1 && trimmed() != "ply") return Error{fmt::format("{}:1: expected the PLY magic line 'ply'", name)};
+    const std::string l = trimmed();
+    std::string_view tok[6];
+    size_t n = 0;
+    for (size_t i = 0; i < l.size() && n < 6;) {
+      while (i < l.size() && (l[i] == ' ' || l[i] == '\t')) ++i;
+      const size_t start = i;
+      while (i < l.size() && l[i] != ' ' && l[i] != '\t') ++i;
+      if (i > start) tok[n++] = std::string_view(l).substr(start, i - start);
+    }
+    if (n >= 2 && tok[0] == "format") ascii = tok[1] == "ascii";
+    if (n >= 3 && tok[0] == "element") {
+      long long count = 0;
+      if (!io::parse_int(tok[2], count) || count < 0)
+        return Error{fmt::format("{}:{}: element {}: expected a count >= 0, found '{}'", name, number,
+                                 io::printable(tok[1]), io::printable(tok[2]))};
+      elements.push_back({std::string(tok[1]), static_cast<unsigned long long>(count), 0, 0, number});
+    }
+    if (n >= 3 && tok[0] == "property" && !elements.empty()) {
+      Element& e = elements.back();
+      e.numbers += 1;
+      e.bytes += tok[1] == "list" ? (n >= 3 ? ply_type_size(tok[2]) : 0) : ply_type_size(tok[1]);
+    }
+    if (l == "end_header") {
+      // What follows the header: numbers (ASCII) or bytes (binary).
+      unsigned long long have = 0;
+      if (ascii) {
+        bool in_token = false;
+        for (std::istreambuf_iterator<char> it(in), end; it != end; ++it) {
+          const char c = *it;
+          const bool space = c == ' ' || c == '\t' || c == '\n' || c == '\r';
+          if (!space && !in_token) ++have;
+          in_token = !space;
+        }
+      } else {
+        const std::streamoff at = in.tellg();
+        in.seekg(0, std::ios::end);
+        have = static_cast<unsigned long long>(std::max<std::streamoff>(0, in.tellg() - at));
+      }
+      unsigned long long need = 0;
+      for (const Element& e : elements) {
+        const size_t each = std::max<size_t>(1, ascii ? e.numbers : e.bytes);
+        if (e.count > (have - std::min(have, need)) / each)
+          return Error{fmt::format("{}:{}: element {} claims {} but the file holds data for at most {} ({} {} after "
+                                   "the header)", name, e.line, e.name, e.count,
+                                   (have - std::min(have, need)) / each, have, ascii ? "numbers" : "bytes")};
+        need += e.count * each;
+      }
+      return {};
+    }
   }
   return Error{fmt::format("{}:{}: unexpected end of file, expected 'end_header' to close the PLY header",
-                           file.string(), number)};
+                           name, number)};
 }
 
 // assimp 5.2's OFF reader silently clamps an out-of-range vertex index to the last vertex, which
@@ -101,6 +173,35 @@ Status check_off_indices(const std::filesystem::path& file) {
   return {};
 }
 
+// The files assimp may open for a mesh: the mesh itself, and files it names (an OBJ's mtllib)
+// only when they are regular files in the mesh's own directory. An `mtllib` naming a FIFO blocked
+// `palpate info` forever; /dev/zero was read without end; a path elsewhere is not the mesh's.
+// Refused ones are "not found" to assimp, which then goes on without materials (never used).
+class MeshDirectoryIO final : public Assimp::DefaultIOSystem {
+ public:
+  explicit MeshDirectoryIO(const std::filesystem::path& mesh) {
+    std::error_code ec;
+    mesh_ = std::filesystem::weakly_canonical(mesh, ec);
+    if (ec) mesh_ = std::filesystem::absolute(mesh, ec);
+  }
+  bool Exists(const char* file) const override { return allowed(file) && DefaultIOSystem::Exists(file); }
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    return allowed(file) ? DefaultIOSystem::Open(file, mode) : nullptr;
+  }
+
+ private:
+  bool allowed(const char* file) const {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::path p(file ? file : "");
+    if (!fs::is_regular_file(p, ec)) return false;  // follows links: a link to /dev/zero is refused
+    const fs::path c = fs::weakly_canonical(p, ec);
+    if (ec) return false;
+    return c == mesh_ || c.parent_path() == mesh_.parent_path();
+  }
+  std::filesystem::path mesh_;
+};
+
 }  // namespace
 
 Result<SurfaceMesh> load_surface(const std::filesystem::path& file, double scale, const SurfaceRequirements& need) {
@@ -111,6 +212,7 @@ Result<SurfaceMesh> load_surface(const std::filesystem::path& file, double scale
   if (std::filesystem::file_size(file, ec) == 0 && !ec) return Error{fmt::format("{}: empty file", where)};
 
   Assimp::Importer importer;
+  importer.SetIOHandler(new MeshDirectoryIO(file));  // the importer owns and deletes it
   const std::string ext = io::lower_extension(file);
   if (ext.empty() || !importer.IsExtensionSupported(ext))
     return Error{fmt::format("{}: unknown surface mesh format '{}', expected .obj, .stl, .ply or .off", where, ext)};

@@ -16,7 +16,7 @@
 namespace palpate {
 namespace {
 
-constexpr int kMaxImageSide = 4096;  // pixels
+constexpr int kMaxImageSide = kMaxOffscreenSide;  // pixels
 constexpr double kPi = 3.14159265358979323846;
 
 // --- camera --------------------------------------------------------------------------------------

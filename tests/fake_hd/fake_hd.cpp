@@ -41,6 +41,7 @@ struct Fake {
   int frame_errors = 0;       // begin/end mismatches and gets outside a frame
   long frame = 0;
   unsigned int error = 0;
+  double max_force = 3.3;     // HD_NOMINAL_MAX_FORCE, N (a Touch's); 0 = a device reporting none
   std::thread servo;
   std::atomic<bool> running{false};
   std::vector<unsigned int> enabled;
@@ -164,7 +165,7 @@ void hdGetDoublev(unsigned int what, double* out) {
       for (int k = 0; k < 3; ++k) out[12 + k] = n ? f.poses[i * 3 + size_t(k)] : 0.0;
       break;
     }
-    case 0x2603: out[0] = 3.3; break;   // HD_NOMINAL_MAX_FORCE, N
+    case 0x2603: out[0] = f.max_force; break;  // HD_NOMINAL_MAX_FORCE, N
     case 0x2602: out[0] = 0.8; break;   // HD_NOMINAL_MAX_STIFFNESS, N/mm
     case 0x2609: out[0] = 0.002; break; // HD_NOMINAL_MAX_DAMPING, N·s/mm
     default: f.error = 0x0100;          // HD_INVALID_ENUM
@@ -212,6 +213,13 @@ void fake_hd_reset(int device_present) {
   f.frame_errors = 0;
   f.frame = 0;
   f.error = 0;
+  f.max_force = 3.3;
+}
+// The nominal maximum force the device reports from now on (N; 0 = none reported).
+void fake_hd_set_max_force(double newtons) {
+  Fake& f = fake();
+  std::lock_guard<std::mutex> lock(f.m);
+  f.max_force = newtons;
 }
 void fake_hd_set_poses(const double* xyz_mm, int n) {
   Fake& f = fake();

@@ -20,7 +20,9 @@ namespace palpate::test {
 
 // A floor at y = 0 pushing back with stiffness·penetration of a sphere tool (N/m · m).
 // `stall`: while true, step() blocks (a physics thread that stalls). `step_sleep`: seconds each
-// step sleeps on every `sleep_every`-th step (an overrunning step).
+// step sleeps on every `sleep_every`-th step (an overrunning step), up to step `sleep_until`
+// (0: all the run). `fail_steps`: steps (1-based) from `fail_from` on that reset the floor and
+// report failure (a blow-up recovered inside the step), returning zero force.
 class LinearFloor : public Tissue {
  public:
   explicit LinearFloor(double stiffness, std::string name = "floor") : k_(stiffness), name_(std::move(name)) {}
@@ -28,12 +30,18 @@ class LinearFloor : public Tissue {
   Vec3 step(const ToolState& tool, double) noexcept override {
     while (stall.load(std::memory_order_acquire)) std::this_thread::sleep_for(std::chrono::microseconds(200));
     ++steps_;
-    if (sleep_every > 0 && steps_ % sleep_every == 0)
+    if (sleep_every > 0 && steps_ % sleep_every == 0 && (sleep_until == 0 || steps_ <= sleep_until))
       std::this_thread::sleep_for(std::chrono::duration<double>(step_sleep));
+    failed_ = fail_from > 0 && steps_ >= fail_from && steps_ < fail_from + fail_steps;
+    if (failed_) {
+      force_ = 0;
+      return Vec3::Zero();
+    }
     const double pen = std::max(0.0, tool.radius - tool.tip.y());
     force_ = k_ * pen;
     return Vec3(0, force_, 0);
   }
+  bool last_step_failed() const noexcept override { return failed_; }
   std::span<const std::string> figure_names() const override { return names_; }
   void figures(std::span<double> out) const noexcept override { out[0] = force_; }
   size_t drain_events(std::span<TissueEvent>) noexcept override { return 0; }
@@ -42,12 +50,15 @@ class LinearFloor : public Tissue {
 
   std::atomic<bool> stall{false};
   long sleep_every = 0;
+  long sleep_until = 0;
   double step_sleep = 0;
+  long fail_from = 0, fail_steps = 0;
 
  protected:
   double k_;
   double force_ = 0;
   long steps_ = 0;
+  bool failed_ = false;
   std::string name_;
   std::vector<std::string> names_ = {"force_N"};
 };

@@ -156,7 +156,9 @@ struct FakeHd {
   int (*frame_errors)() = nullptr;
   int (*enabled)(unsigned) = nullptr;
   int (*forces)(double*, int) = nullptr;
+  void (*set_max_force)(double) = nullptr;
   FakeHd() {
+    set_max_force = reinterpret_cast<void (*)(double)>(::dlsym(lib, "fake_hd_set_max_force"));
     reset = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_reset"));
     set_poses = reinterpret_cast<void (*)(const double*, int)>(::dlsym(lib, "fake_hd_set_poses"));
     set_rotation = reinterpret_cast<void (*)(const double*)>(::dlsym(lib, "fake_hd_set_rotation"));
@@ -172,7 +174,34 @@ struct FakeHd {
     if (n == 0 || n > 100000) return Vec3::Constant(-1);
     return Vec3(f[size_t(n - 1) * 3], f[size_t(n - 1) * 3 + 1], f[size_t(n - 1) * 3 + 2]);
   }
+  // Every force the servo sent, in order.
+  std::vector<Vec3> all_forces() {
+    std::vector<double> f(3 * 200000);
+    const int n = std::min(forces(f.data(), 200000), 200000);
+    std::vector<Vec3> out;
+    for (int i = 0; i < n; ++i) out.emplace_back(f[size_t(i) * 3], f[size_t(i) * 3 + 1], f[size_t(i) * 3 + 2]);
+    return out;
+  }
 };
+
+// What the hand felt, frame by frame: finite, within `max_force`, changing by at most `max_step`
+// per servo frame, ending at zero. Returns the largest frame-to-frame change.
+double check_servo_forces(const std::vector<Vec3>& sent, double max_force, double max_step) {
+  Vec3 last = Vec3::Zero();
+  double largest = 0;
+  for (size_t i = 0; i < sent.size(); ++i) {
+    EXPECT_TRUE(sent[i].allFinite()) << i;
+    EXPECT_LE(sent[i].norm(), max_force + 1e-12) << i;
+    const double step = (sent[i] - last).norm();
+    EXPECT_LE(step, max_step + 1e-12) << "frame " << i << ": " << last.transpose() << " -> " << sent[i].transpose();
+    largest = std::max(largest, step);
+    last = sent[i];
+  }
+  if (!sent.empty()) {
+    EXPECT_EQ(sent.back(), Vec3::Zero());
+  }
+  return largest;
+}
 }  // namespace
 
 TEST(HapticOpenHaptics, MissingLibraryErrorSaysHowToRunScripted) {
@@ -280,6 +309,81 @@ TEST(HapticOpenHaptics, LoopDrivesTheDeviceWithinLimits) {
     last = hd.last_force();
   }
   EXPECT_EQ(last, Vec3::Zero());
+  // The loop's ticks and the servo's frames run on two unsynchronised 1 kHz clocks, so two ticks
+  // (0.4 N) could land between two frames: the servo holds the rate limit per frame itself
+  // (200 N/s = 0.2 N per 1 ms frame), the zero at stop included.
+  (*loop).reset();
+  (*d).reset();
+  check_servo_forces(hd.all_forces(), 3.3, 200.0 * 1e-3);
+}
+
+// A program on the public API (examples/embed) may write any force straight to the device: the
+// backend clamps it, limits its change per servo frame, zeroes NaN and ramps to zero at the end.
+TEST(HapticOpenHaptics, BackendClampsAndRateLimitsWhatAnyCallerWrites) {
+  FakeHd hd;
+  ASSERT_NE(hd.lib, nullptr) << ::dlerror();
+  hd.reset(1);
+  palpate::DeviceLimits asked;
+  asked.max_force = 50.0;  // a scene's most; the device says 3.3 N
+  {
+    auto d = palpate::open_openhaptics(PALPATE_FAKE_HD, "", asked);
+    ASSERT_TRUE(d.ok()) << d.error().message;
+    EXPECT_EQ((*d)->limits().max_force, 3.3);
+    auto press = [&](const Vec3& f, int ms) {
+      for (int i = 0; i < ms; ++i) {
+        (*d)->write(f, Vec3::Zero());
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
+    };
+    press(Vec3(0, 40, 0), 80);   // 40 N asked: clamped, and ramped up at 0.2 N per frame
+    EXPECT_NEAR(hd.last_force().norm(), 3.3, 1e-9);
+    press(Vec3(0, -40, 0), 80);  // reversed at once: 6.6 N of change, spread over 33 frames
+    press(Vec3(std::nan(""), 0, 0), 40);  // NaN: to zero, ramped
+    press(Vec3(0, 3.0, 0), 60);
+    EXPECT_NEAR(hd.last_force().y(), 3.0, 1e-9);
+    // Destroyed while pushing 3 N (no stale force yet): the zero at stop is a ramp too.
+  }
+  const std::vector<Vec3> sent = hd.all_forces();
+  ASSERT_GT(sent.size(), 200u);
+  const double largest = check_servo_forces(sent, 3.3, 0.2);
+  EXPECT_GT(largest, 0.19);  // the limit was reached, so it was what held the steps
+  EXPECT_EQ(hd.frame_errors(), 0);
+}
+
+// A device that reports no nominal maximum force (0) gets its family's documented one (a Touch's
+// 3.3 N), not the scene's, which may be up to 50 N; and a force it stops receiving is ramped out.
+TEST(HapticOpenHaptics, NoReportedMaximumFallsBackToTheTouchLimit) {
+  FakeHd hd;
+  ASSERT_NE(hd.lib, nullptr) << ::dlerror();
+  hd.reset(1);
+  hd.set_max_force(0.0);
+  palpate::DeviceLimits asked;
+  asked.max_force = 50.0;
+  {
+    auto d = palpate::open_openhaptics(PALPATE_FAKE_HD, "", asked);
+    ASSERT_TRUE(d.ok()) << d.error().message;
+    EXPECT_EQ((*d)->limits().max_force, 3.3);
+    for (int i = 0; i < 60; ++i) {
+      (*d)->write(Vec3(25, 0, 0), Vec3::Zero());
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    EXPECT_NEAR(hd.last_force().norm(), 3.3, 1e-9);
+    // The writer dies: after 50 ms the servo takes the force to zero, within the rate limit.
+    Vec3 seen = hd.last_force();
+    for (int i = 0; i < 2000 && seen != Vec3::Zero(); ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      seen = hd.last_force();
+    }
+    EXPECT_EQ(seen, Vec3::Zero());
+  }
+  check_servo_forces(hd.all_forces(), 3.3, 0.2);
+  // A scene's lower maximum still stands.
+  hd.reset(1);
+  hd.set_max_force(0.0);
+  asked.max_force = 1.0;
+  auto d = palpate::open_openhaptics(PALPATE_FAKE_HD, "", asked);
+  ASSERT_TRUE(d.ok()) << d.error().message;
+  EXPECT_EQ((*d)->limits().max_force, 1.0);
 }
 
 TEST(HapticOpenHaptics, ARotatedStylusTiltsTheNeedleTheTissuesSee) {

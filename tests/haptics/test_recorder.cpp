@@ -6,10 +6,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
@@ -104,4 +106,53 @@ TEST(Recorder, KilledRunKeepsWholeRowsUpToLastFlush) {
     ASSERT_EQ(tick, expect++);
   }
   EXPECT_GE(expect, 100);  // ~600 rows pushed, flushed every 100 ms; slack for a loaded machine
+}
+
+// A full disk mid-row: the write takes what fits and then fails. The recording is cut back to its
+// last whole row (docs/haptics.md promises whole rows), close() names the file, and nothing is
+// renamed into place. The full disk is a file-size limit (RLIMIT_FSIZE: the write past it fails
+// with EFBIG, after a partial write, as ENOSPC does).
+TEST(Recorder, FullDiskKeepsWholeRowsOnly) {
+  const fs::path csv = fs::temp_directory_path() / "palpate_test_recorder_full" / "run.csv";
+  fs::remove(csv);
+  fs::remove(csv.string() + ".part");
+  rlimit old{};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
+  auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+  rlimit small = old;
+  small.rlim_cur = 10007;  // a limit inside a row
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  palpate::RecorderOptions o;
+  o.capacity_rows = 256;
+  o.flush_period = 0.001;
+  auto r = palpate::Recorder::open(csv, {"tick", "t", "x"},
+                                   {palpate::ColumnFormat::integer, palpate::ColumnFormat::number,
+                                    palpate::ColumnFormat::number},
+                                   o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  for (int i = 0; i < 5000; ++i) {
+    const double row[3] = {double(i), (i + 1) * 0.001, 0.123456789 * i};
+    (*r)->push_wait(row);
+  }
+  const palpate::Status st = (*r)->close();
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &old), 0);
+  std::signal(SIGXFSZ, old_handler);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().message.find("run.csv.part: write failed (disk full?)"), std::string::npos)
+      << st.error().message;
+  EXPECT_FALSE(fs::exists(csv));
+  const std::string text = slurp(csv.string() + ".part");
+  ASSERT_GT(text.size(), 1000u);
+  EXPECT_LE(text.size(), 10007u);
+  EXPECT_EQ(text.back(), '\n');
+  std::istringstream in(text);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "tick,t,x");
+  long expect = 0;
+  while (std::getline(in, line)) {
+    ASSERT_EQ(std::count(line.begin(), line.end(), ','), 2) << line;
+    EXPECT_EQ(std::stol(line.substr(0, line.find(','))), expect++);
+  }
+  EXPECT_GT(expect, 100);
 }

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -276,4 +277,130 @@ tissues:
   }
   ASSERT_GT(csv[0].size(), 10000u);
   EXPECT_TRUE(csv[0] == csv[1]) << "run.csv differs from the fixed-axis run";
+}
+
+// RunOptions::interrupt ends a run early at a tick boundary (headless or realtime) with complete
+// outputs: run.csv to the last tick run, summary.json with "interrupted": true; no .part left.
+TEST(Run, InterruptStopsAtATickWithCompleteOutputs) {
+  for (const bool realtime : {false, true}) {
+    const fs::path out = fs::temp_directory_path() / "palpate_test_run_interrupt";
+    fs::remove_all(out);
+    palpate::SceneDef scene = press_scene(out);
+    scene.duration = realtime ? 20.0 : 100.0;
+    std::atomic<bool> stop{false};
+    palpate::RunOptions opt;
+    opt.realtime = realtime;
+    opt.realtime_priority = false;
+    opt.interrupt = &stop;
+    opt.progress = [&](double f) {
+      if (f >= (realtime ? 0.01 : 0.3)) stop.store(true);
+    };
+    auto r = palpate::run_scene(scene, floor_of(300.0), opt);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_TRUE(r->interrupted);
+    const size_t asked = size_t(std::llround(scene.duration / scene.dt));
+    EXPECT_GE(r->ticks, realtime ? 100u : asked * 3 / 10);
+    EXPECT_LT(r->ticks, asked);
+    std::istringstream csv(slurp(out / "run.csv"));
+    std::string line;
+    std::getline(csv, line);
+    size_t rows = 0;
+    while (std::getline(csv, line)) {
+      double v[9];
+      ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3],
+                            &v[4], &v[5], &v[6], &v[7], &v[8]), 9) << line;
+      ASSERT_EQ(v[8], double(rows)) << line;
+      ++rows;
+    }
+    EXPECT_EQ(rows, r->ticks);
+    auto j = nlohmann::json::parse(slurp(out / "summary.json"));
+    EXPECT_EQ(j["interrupted"], true);
+    EXPECT_EQ(j["ticks"], r->ticks);
+    for (const auto& e : fs::directory_iterator(out)) EXPECT_NE(e.path().extension(), ".part") << e.path();
+  }
+  // A run not interrupted says so.
+  const fs::path out = fs::temp_directory_path() / "palpate_test_run_not_interrupted";
+  auto r = palpate::run_scene(press_scene(out), floor_of(300.0));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_FALSE(r->interrupted);
+  EXPECT_EQ(nlohmann::json::parse(slurp(out / "summary.json"))["interrupted"], false);
+}
+
+// The OpenHaptics device is driven at the wall clock's 1 kHz only: a headless run (ticks as fast
+// as they go) is refused before the device is opened.
+TEST(Run, OpenHapticsWithoutRealtimeIsRefused) {
+  palpate::SceneDef scene = press_scene(fs::temp_directory_path() / "palpate_test_run_ohd");
+  scene.file = "hand.yaml";
+  scene.device.kind = "openhaptics";
+  scene.device.hd_library = "/nonexistent/libHD.so";
+  auto r = palpate::run_scene(scene, floor_of(300.0));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("hand.yaml: device kind 'openhaptics' needs a realtime run"), std::string::npos)
+      << r.error().message;
+  EXPECT_EQ(r.error().message.find("cannot load the HD library"), std::string::npos);  // never opened
+  palpate::RunOptions opt;
+  opt.realtime = true;
+  r = palpate::run_scene(scene, floor_of(300.0), opt);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("cannot load the HD library"), std::string::npos) << r.error().message;
+}
+
+// A run into a directory an earlier run used (one killed while plotting) starts by clearing that
+// run's outputs: no old summary.json or plots beside the new run.csv, no *.part left; other files
+// in the directory stay.
+TEST(Run, StaleOutputsAreClearedWhenARunStarts) {
+  const fs::path out = fs::temp_directory_path() / "palpate_test_run_stale";
+  fs::remove_all(out);
+  fs::create_directories(out);
+  for (const char* f : {"summary.json", "force_time.png", "force_depth.png", "force_time.png.part",
+                        "run.csv.part", "frame_000.png", "frame_0042.png", "summary.json.tmp-1-2",
+                        "notes.txt", "frame_x.png", "mine.part"})
+    std::ofstream(out / f) << "old";
+  palpate::RunOptions opt;
+  opt.plots = false;  // the new run writes no plots: the old ones must not pass for its own
+  auto r = palpate::run_scene(press_scene(out), floor_of(300.0), opt);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  for (const char* gone : {"force_time.png", "force_depth.png", "force_time.png.part", "run.csv.part",
+                           "frame_000.png", "frame_0042.png", "summary.json.tmp-1-2"})
+    EXPECT_FALSE(fs::exists(out / gone)) << gone;
+  for (const char* kept : {"notes.txt", "frame_x.png", "mine.part"}) EXPECT_EQ(slurp(out / kept), "old") << kept;
+  EXPECT_NE(slurp(out / "summary.json"), "old");
+  EXPECT_TRUE(fs::exists(out / "run.csv"));
+}
+
+// A camera larger than frames can be drawn is refused before the run, naming the scene's key (it
+// was refused only after the whole run, naming frame_000.png).
+TEST(Run, FramesCameraTooLargeIsRefusedBeforeTheRun) {
+  const fs::path out = fs::temp_directory_path() / "palpate_test_run_big_camera";
+  fs::remove_all(out);
+  palpate::SceneDef scene = press_scene(out);
+  scene.file = "big.yaml";
+  scene.camera = palpate::CameraDef{};
+  scene.camera->height = 8000;
+  palpate::RunOptions opt;
+  opt.frames = 2;
+  auto r = palpate::run_scene(scene, floor_of(300.0), opt);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().message,
+            "big.yaml: camera.height: 8000 pixels is more than frames can be drawn off-screen (at most 4096); "
+            "lower it to run with --frames");
+  EXPECT_FALSE(fs::exists(out / "run.csv"));
+  EXPECT_FALSE(fs::exists(out / "run.csv.part"));
+}
+
+// A run that cannot fit is refused before its first tick, naming duration and the numbers.
+TEST(Run, ARunTooLargeForMemoryIsRefusedAtTheStart) {
+  const fs::path out = fs::temp_directory_path() / "palpate_test_run_huge";
+  fs::remove_all(out);
+  palpate::SceneDef scene = press_scene(out);
+  scene.file = "huge.yaml";
+  scene.duration = 1e7;
+  scene.dt = 1e-5;  // 1e12 ticks: ~96 TB of series, more than any machine
+  auto r = palpate::run_scene(scene, floor_of(300.0));
+  ASSERT_FALSE(r.ok());
+  const std::string& m = r.error().message;
+  EXPECT_EQ(m.rfind("huge.yaml: duration: duration 10000000 s at dt 1e-05 s is 1000000000000 ticks", 0), 0u) << m;
+  EXPECT_FALSE(fs::exists(out / "run.csv.part"));
+  const palpate::RunFootprint fp = palpate::run_footprint(360000000, 16);
+  EXPECT_NEAR(fp.memory_bytes, 3.456e10, 1e6);
 }

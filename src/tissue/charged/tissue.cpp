@@ -32,8 +32,13 @@ class ChargedTissue final : public Tissue {
     // only a needle punctures.
     hip.radius = tool.radius;
     hip.sharp = tool.needle;
-    return palpate::step(model_, state_, hip, dt, index_, above_);
+    const long resets = state_.stats.numeric_resets;
+    const Vec3 f = palpate::step(model_, state_, hip, dt, index_, above_);
+    failed_ = state_.stats.numeric_resets != resets;
+    return f;
   }
+
+  bool last_step_failed() const noexcept override { return failed_; }
 
   std::span<const std::string> figure_names() const override { return kFigureNames; }
 
@@ -95,6 +100,7 @@ class ChargedTissue final : public Tissue {
   int index_;
   ChargedModel model_;
   ChargedState state_;
+  bool failed_ = false;  // the last step() reset the state
   ChargedLayer self_{&model_, &state_};
   std::vector<ChargedLayer> above_;  // the charged layers that press on this one (set_layers_above)
 };
@@ -112,6 +118,13 @@ Result<std::unique_ptr<Tissue>> make_charged_tissue(const SceneDef& scene, int i
   Result<ChargedModel> model = t.patch ? build_charged_patch(*t.patch, t.charged, where)
                                        : charged::build_on_mesh_ref(*t.mesh, t.charged, where);
   if (!model) return model.error();
+  // An anchor must name a particle of this patch (an index past it was accepted and ignored).
+  const size_t n = model->size();
+  for (size_t i = 0; i < t.anchors.size(); ++i)
+    if (t.anchors[i] < 0 || static_cast<size_t>(t.anchors[i]) >= n)
+      return Error{where + ": anchors[" + std::to_string(i) + "]: " + std::to_string(t.anchors[i]) +
+                   " is not a particle of the patch (it has " + std::to_string(n) + ": 0.." +
+                   std::to_string(n == 0 ? 0 : n - 1) + ")"};
   return std::unique_ptr<Tissue>(std::make_unique<ChargedTissue>(t.name, index, std::move(*model)));
 }
 

@@ -36,15 +36,19 @@ class SpringTissue final : public Tissue {
     // The predictor is built for one step length: a longer tick runs several steps.
     const long substeps = std::max(1L, std::lround(dt / model_.options.dt));
     Vec3 force = Vec3::Zero();
+    failed_ = false;
     for (long k = 0; k < substeps; ++k) {
       if (!palpate::step(model_, state_, &tool)) {
         push_event({tool.time, "reset", index_, 0.0, 0.0});
+        failed_ = true;
         return Vec3::Zero();
       }
       force = state_.tool_force;
     }
     return force;
   }
+
+  bool last_step_failed() const noexcept override { return failed_; }
 
   std::span<const std::string> figure_names() const override { return kFigureNames; }
 
@@ -98,6 +102,7 @@ class SpringTissue final : public Tissue {
   int index_;
   SpringModel model_;
   SpringState state_;
+  bool failed_ = false;  // the last step() reset the state
   std::array<TissueEvent, 64> events_{};
   size_t head_ = 0, count_ = 0;
 };
