@@ -30,6 +30,11 @@ struct RunOptions {
   // thread runs (hand-over through SnapshotTissue: the loop never waits for them).
   int frames = 0;
   FrameOptions frame_options;
+  // Ultrasound: `ultrasound` B-mode PNGs (us_000.png, ...) of the plane under the scene's probe,
+  // spaced over the run as the frames are, each from the probe's and the needle's pose at its tick
+  // and that tick's time (the arterial pulse); drawn on this thread, off the haptic thread.
+  // Needs the scene's `probe`.
+  int ultrasound = 0;
 };
 
 struct RunFrame {
@@ -62,9 +67,14 @@ struct RunSummary {
   std::string plot_error;                         // why plots are missing, if they are
   std::vector<RunFrame> frames;                   // frames written, if asked for
   std::string frame_error;                        // why frames are missing, if they are
+  std::vector<RunFrame> ultrasound;               // ultrasound images written, if asked for
+  std::string ultrasound_error;                   // why they are missing, if they are
+  std::vector<LoopToolStats> tools;               // the extra tools (the probe): force, safety
 };
 
-// Run `scene` for its duration at its fixed tick, with its device; stream `run.csv` (through
+// Run `scene` for its duration at its fixed tick, with its device (and, when the scene has a
+// probe, the probe's device as a second tool with its own safety filter, pressing the neck:
+// NeckCompression); stream `run.csv` (through
 // `run.csv.part`, renamed at the end) and write `summary.json` atomically into the output directory.
 Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options = {});
 

@@ -6,6 +6,7 @@
 #include <palpate/safety.h>
 #include <palpate/snapshot_tissue.h>
 #include <palpate/tissue.h>
+#include <palpate/ultrasound.h>
 
 #include "io/plots.h"
 
@@ -57,6 +58,24 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   if (options.frames < 0 || std::uint64_t(options.frames) > ticks)
     return Error{where + ": frames must be between 0 and the run's " + std::to_string(ticks) +
                  " ticks, not " + std::to_string(options.frames)};
+  if (options.ultrasound < 0 || std::uint64_t(options.ultrasound) > ticks)
+    return Error{where + ": ultrasound images must be between 0 and the run's " + std::to_string(ticks) +
+                 " ticks, not " + std::to_string(options.ultrasound)};
+  if (options.ultrasound > 0 && !scene.probe)
+    return Error{where + ": ultrasound images need a 'probe' section in the scene (the probe's device, "
+                 "footprint and imaging; docs/scene-format.md), and this scene has none"};
+
+  // The probe: a second tool in the other hand, its own device and safety filter, pressing the
+  // neck (NeckCompression: the force on the probe; the image reads the same model).
+  std::unique_ptr<Device> probe_device;
+  std::unique_ptr<NeckCompression> probe_model;
+  if (scene.probe) {
+    if (!scene.anatomy) return Error{where + ": probe: needs an 'anatomy' (the ultrasound images the generated neck)"};
+    auto pd = make_device(scene.probe->device, scene.probe->axis, where, "probe.device");
+    if (!pd) return pd.error();
+    probe_device = std::move(*pd);
+    probe_model = std::make_unique<NeckCompression>(*scene.anatomy, *scene.probe);
+  }
 
   // Frames: each tissue hands its drawn state over through a SnapshotTissue (allocation-free on
   // the stepping thread); frame k is taken after frame_target(k) ticks have run.
@@ -69,14 +88,16 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
       t = std::move(wrapped);
     }
   }
-  auto frame_target = [&](size_t k) -> std::uint64_t {
-    if (nframes == 1) return ticks;
-    return 1 + static_cast<std::uint64_t>(
-                   std::llround(double(k) * double(ticks - 1) / double(nframes - 1)));
+  // Image k of n is taken after target(k, n) ticks: the first after the first tick, the last at the end.
+  auto target_of = [&](size_t k, size_t n) -> std::uint64_t {
+    if (n == 1) return ticks;
+    return 1 + static_cast<std::uint64_t>(std::llround(double(k) * double(ticks - 1) / double(n - 1)));
   };
+  auto frame_target = [&](size_t k) { return target_of(k, nframes); };
   const int digits = nframes > 1000 ? int(std::to_string(nframes - 1).size()) : 3;
   std::vector<RunFrame> frames;
   std::string frame_error;
+  HapticLoop* loop_ptr = nullptr;  // set once the loop is built: the frames draw the probe's pose
   std::vector<TissueSnapshot> frame_snaps(snaps.size());
   // Draw frame k from the newest copies; `direct`: nothing steps the tissues now (headless, or the
   // realtime loop has ended), so a tissue that has not published since the request (a multi-rate
@@ -98,7 +119,14 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     if (!frame_error.empty()) return;
     const fs::path file = out / fmt::format("frame_{:0{}}.png", k, digits);
     const std::optional<Vec3> axis = tool.stepped ? std::optional<Vec3>(tool.axis) : std::nullopt;
-    if (Status s = render_frame_png(scene, frame_snaps, tool.tip, force, file, options.frame_options, axis); !s)
+    std::optional<FrameProbe> probe;
+    if (scene.probe && loop_ptr) {
+      const ToolSample ps = loop_ptr->tool_sample(1);
+      probe = FrameProbe{*scene.probe, ps.position, ps.orientation};
+    }
+    if (Status s = render_frame_png(scene, frame_snaps, tool.tip, force, file, options.frame_options, axis,
+                                    probe ? &*probe : nullptr);
+        !s)
       frame_error = s.error().message;
     else
       frames.push_back({tool.time, file});
@@ -126,9 +154,40 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   std::vector<LoopTissue> lt;
   for (size_t i = 0; i < tissues.size(); ++i)
     lt.push_back({tissues[i].get(), i < options.physics_dt.size() ? options.physics_dt[i] : 0.0});
-  auto built = HapticLoop::create(dev, std::move(lt), ls);
+  std::vector<LoopTool> extra;
+  if (probe_device) extra.push_back({"probe", probe_device.get(), probe_model.get(), scene.probe->device.ramp_in});
+  auto built = HapticLoop::create(dev, std::move(lt), ls, std::move(extra));
   if (!built) return built.error();
   HapticLoop& loop = **built;
+  loop_ptr = &loop;
+
+  // Ultrasound images: image k after us_target(k) ticks, from the newest tick's probe and needle
+  // (the loop's tool samples; in a headless run exactly that tick), on this thread.
+  const auto nus = static_cast<size_t>(options.ultrasound);
+  auto us_target = [&](size_t k) { return target_of(k, nus); };
+  std::unique_ptr<UltrasoundImager> imager;
+  if (nus > 0) imager = std::make_unique<UltrasoundImager>(*scene.anatomy, *scene.probe);
+  UltrasoundImage us_image;
+  std::vector<RunFrame> us_frames;
+  std::string us_error;
+  const int us_digits = nus > 1000 ? int(std::to_string(nus - 1).size()) : 3;
+  auto take_ultrasound = [&](size_t k) {
+    if (!us_error.empty()) return;
+    const ToolSample needle = loop.tool_sample(0), probe = loop.tool_sample(1);
+    NeedlePose np;
+    np.present = scene.tool.kind == "needle" && needle.valid;
+    np.tip = needle.position;
+    np.axis = needle.axis;
+    np.radius = scene.tool.radius;
+    np.length = scene.tool.length;
+    imager->render({probe.position, probe.orientation}, np, probe.time, us_image);
+    const fs::path file = out / fmt::format("us_{:0{}}.png", k, us_digits);
+    if (Status s = write_ultrasound_png(us_image, file); !s)
+      us_error = s.error().message;
+    else
+      us_frames.push_back({probe.time, file});
+  };
+  size_t next_us = 0;
 
   // --- the run: the loop's own thread paced by the wall clock, or ticks as fast as they go here.
   size_t next_frame = 0;
@@ -151,6 +210,10 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
         options.progress(double(st.ticks) / double(std::max<std::uint64_t>(1, ticks)));
         last_progress = now;
       }
+      if (next_us < nus && st.ticks >= us_target(next_us)) {
+        take_ultrasound(next_us++);
+        continue;
+      }
       if (next_frame < nframes && !requested && st.ticks + 3 >= frame_target(next_frame)) {
         for (SnapshotTissue* t : snaps) t->request();
         std::fill(got.begin(), got.end(), 0);
@@ -170,16 +233,18 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
           continue;
         }
       }
-      std::this_thread::sleep_for(std::chrono::milliseconds(next_frame < nframes ? 1 : 50));
+      std::this_thread::sleep_for(std::chrono::milliseconds(next_frame < nframes || next_us < nus ? 1 : 50));
     }
     loop.wait();
     for (; next_frame < nframes; ++next_frame) take_frame(next_frame, true);
+    for (; next_us < nus; ++next_us) take_ultrasound(next_us);
     if (options.progress) options.progress(1.0);
   } else {
     const std::uint64_t chunk = std::max<std::uint64_t>(1, ticks / 100);
     for (std::uint64_t done = 0; done < ticks;) {
       std::uint64_t n = std::min(chunk, ticks - done);
       if (next_frame < nframes) n = std::min(n, frame_target(next_frame) - done);
+      if (next_us < nus) n = std::min(n, us_target(next_us) - done);
       if (next_frame < nframes && done + n == frame_target(next_frame)) {
         if (n > 1) loop.run_headless(n - 1);
         for (SnapshotTissue* t : snaps) t->request();
@@ -189,6 +254,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
         loop.run_headless(n);
       }
       done += n;
+      while (next_us < nus && us_target(next_us) == done) take_ultrasound(next_us++);
       if (options.progress) options.progress(double(done) / double(ticks));
     }
   }
@@ -251,6 +317,16 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
                  {"clamped", sc.clamped}, {"rate_limited", sc.rate_limited},
                  {"overrun", sc.overrun}, {"stalled", sc.stalled},
                  {"device_failed", sc.device_failed}, {"max_force_N", dev.limits().max_force}};
+  // The probe (the other hand's tool): its largest force and its own safety filter's counters.
+  summary.tools = st.tools;
+  for (const LoopToolStats& t : st.tools) {
+    const SafetyCounters& c = t.safety;
+    j[t.name] = {{"max_force_N", t.max_force},
+                 {"safety", {{"non_finite", c.non_finite}, {"step_failed", c.step_failed},
+                             {"clamped", c.clamped}, {"rate_limited", c.rate_limited},
+                             {"overrun", c.overrun}, {"stalled", c.stalled},
+                             {"device_failed", c.device_failed}, {"max_force_N", t.max_force_limit}}}};
+  }
   j["recorder_dropped"] = st.recorder_dropped;
   j["tissues"] = nlohmann::json::array();
   for (const auto& t : tissues) j["tissues"].push_back(t->name());
@@ -292,6 +368,14 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     for (const RunFrame& f : summary.frames)
       j["outputs"]["frames"].push_back({{"file", f.file.filename().string()}, {"time_s", f.time}});
     if (!summary.frame_error.empty()) j["outputs"]["frame_error"] = summary.frame_error;
+  }
+  summary.ultrasound = std::move(us_frames);
+  summary.ultrasound_error = std::move(us_error);
+  if (nus > 0) {
+    j["outputs"]["ultrasound"] = nlohmann::json::array();
+    for (const RunFrame& f : summary.ultrasound)
+      j["outputs"]["ultrasound"].push_back({{"file", f.file.filename().string()}, {"time_s", f.time}});
+    if (!summary.ultrasound_error.empty()) j["outputs"]["ultrasound_error"] = summary.ultrasound_error;
   }
   if (Status s = write_file_atomic(summary.summary_json, j.dump(2) + "\n"); !s) return s.error();
   return summary;
