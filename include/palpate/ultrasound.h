@@ -11,6 +11,7 @@
 #include <complex>
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <vector>
 
 namespace palpate {
@@ -113,16 +114,22 @@ class UltrasoundImager {
  public:
   UltrasoundImager(const NeckDef& neck, const ProbeDef& probe);
   void render(const ProbePose& probe, const NeedlePose& needle, double t, UltrasoundImage& out);
+  // The vein's wall as the needle's tissue has it now: the `vein` tissue's particles at rest and now
+  // (snapshots, point for point; the run's first snapshot is its rest). The image then shows the wall
+  // tented where the needle pushes it, on top of the probe's compression. Empty spans: no tenting.
+  void set_vein_wall(std::span<const Vec3f> rest, std::span<const Vec3f> now);
   // World point of pixel (column, row) centres (fractional allowed) for a probe pose.
   Vec3 pixel_position(const ProbePose& probe, double column, double row) const noexcept;
   const NeckCompression& neck() const noexcept { return model_; }
 
  private:
   NeckCompression model_;
-  std::vector<double> axial_kernel_;               // the PSF along the beam (pixels)
-  std::vector<std::vector<double>> lateral_kernel_;// the PSF across, per row (widens off focus)
+  std::vector<float> axial_kernel_;                // the PSF along the beam (pixels)
+  std::vector<std::vector<float>> lateral_kernel_; // the PSF across, per row (widens off focus)
   std::vector<std::complex<float>> field_, tmp_;   // scratch
-  std::vector<float> echo_, atten_;                 // scratch: per pixel amplitude, attenuation
+  std::vector<double> tgc_;                        // scratch: time-gain compensation per row
+  std::vector<Vec3f> wall_rest_, wall_now_;        // the vein wall's particles (set_vein_wall)
+  std::vector<Vec3> rest_;                         // scratch: the inverse displacement map's grid
 };
 
 // Write an ultrasound image as an 8-bit grey PNG (atomically, via <file>.part).
