@@ -32,8 +32,9 @@ struct RunOptions {
   FrameOptions frame_options;
   // Ultrasound: `ultrasound` B-mode PNGs (us_000.png, ...) of the plane under the scene's probe,
   // spaced over the run as the frames are, each from the probe's and the needle's pose at its tick
-  // and that tick's time (the arterial pulse); drawn on this thread, off the haptic thread.
-  // Needs the scene's `probe`.
+  // and that tick's time (the arterial pulse), the vein's wall tented where the needle's tissue
+  // pushes it (the scene's `vein` tissue handed over through a SnapshotTissue, as frames are);
+  // drawn on this thread, off the haptic thread. Needs the scene's `probe`.
   int ultrasound = 0;
 };
 

@@ -80,8 +80,15 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   // Frames: each tissue hands its drawn state over through a SnapshotTissue (allocation-free on
   // the stepping thread); frame k is taken after frame_target(k) ticks have run.
   const auto nframes = static_cast<size_t>(options.frames);
+  const auto nus = static_cast<size_t>(options.ultrasound);
+  // Ultrasound images show the vein's wall tented where the needle pushes it: the scene's `vein`
+  // tissue (its first) hands its particles over the same way, at rest and at each image's tick.
+  int vein = -1;
+  if (nus > 0 && tissues.size() == scene.tissues.size())
+    for (size_t i = 0; i < scene.tissues.size() && vein < 0; ++i)
+      if (scene.tissues[i].role == "vein") vein = int(i);
   std::vector<SnapshotTissue*> snaps;
-  if (nframes > 0) {
+  if (nframes > 0 || vein >= 0) {
     for (auto& t : tissues) {
       auto wrapped = std::make_unique<SnapshotTissue>(std::move(t));
       snaps.push_back(wrapped.get());
@@ -163,16 +170,29 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
 
   // Ultrasound images: image k after us_target(k) ticks, from the newest tick's probe and needle
   // (the loop's tool samples; in a headless run exactly that tick), on this thread.
-  const auto nus = static_cast<size_t>(options.ultrasound);
   auto us_target = [&](size_t k) { return target_of(k, nus); };
+  SnapshotTissue* vein_snap = vein >= 0 ? snaps[size_t(vein)] : nullptr;
+  std::vector<Vec3f> vein_rest;  // the vein's particles before the first step
+  if (vein_snap) vein_rest = vein_snap->latest().points;
   std::unique_ptr<UltrasoundImager> imager;
   if (nus > 0) imager = std::make_unique<UltrasoundImager>(*scene.anatomy, *scene.probe);
   UltrasoundImage us_image;
   std::vector<RunFrame> us_frames;
   std::string us_error;
   const int us_digits = nus > 1000 ? int(std::to_string(nus - 1).size()) : 3;
-  auto take_ultrasound = [&](size_t k) {
+  // `swap`: take the vein's newest hand-over (false while a frame waits for its own, realtime:
+  // the image then reads the one the frames have); `direct`: nothing steps now, copy it if stale.
+  auto take_ultrasound = [&](size_t k, bool swap, bool direct) {
     if (!us_error.empty()) return;
+    if (vein_snap) {
+      bool fresh = false;
+      if (swap) vein_snap->latest(&fresh);
+      if (swap && direct && !fresh) {
+        vein_snap->publish_last_step();
+        vein_snap->latest();
+      }
+      imager->set_vein_wall(vein_rest, vein_snap->current().points);
+    }
     const ToolSample needle = loop.tool_sample(0), probe = loop.tool_sample(1);
     NeedlePose np;
     np.present = scene.tool.kind == "needle" && needle.valid;
@@ -201,7 +221,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     // are rasterised on this thread alone, unless the user set LP_NUM_THREADS.
     if (nframes > 0) ::setenv("LP_NUM_THREADS", "0", /*overwrite=*/0);
     if (Status s = loop.start(); !s) return s.error();
-    bool requested = false;
+    bool requested = false, us_requested = false;
     std::vector<char> got(snaps.size(), 0);
     auto last_progress = std::chrono::steady_clock::now();
     for (LoopStats st = loop.stats(); st.running; st = loop.stats()) {
@@ -210,8 +230,13 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
         options.progress(double(st.ticks) / double(std::max<std::uint64_t>(1, ticks)));
         last_progress = now;
       }
+      if (vein_snap && next_us < nus && !us_requested && st.ticks + 3 >= us_target(next_us)) {
+        vein_snap->request();  // served by the next step
+        us_requested = true;
+      }
       if (next_us < nus && st.ticks >= us_target(next_us)) {
-        take_ultrasound(next_us++);
+        take_ultrasound(next_us++, !requested, false);
+        us_requested = false;
         continue;
       }
       if (next_frame < nframes && !requested && st.ticks + 3 >= frame_target(next_frame)) {
@@ -237,7 +262,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     }
     loop.wait();
     for (; next_frame < nframes; ++next_frame) take_frame(next_frame, true);
-    for (; next_us < nus; ++next_us) take_ultrasound(next_us);
+    for (; next_us < nus; ++next_us) take_ultrasound(next_us, true, true);
     if (options.progress) options.progress(1.0);
   } else {
     const std::uint64_t chunk = std::max<std::uint64_t>(1, ticks / 100);
@@ -245,16 +270,22 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
       std::uint64_t n = std::min(chunk, ticks - done);
       if (next_frame < nframes) n = std::min(n, frame_target(next_frame) - done);
       if (next_us < nus) n = std::min(n, us_target(next_us) - done);
-      if (next_frame < nframes && done + n == frame_target(next_frame)) {
+      const bool frame_now = next_frame < nframes && done + n == frame_target(next_frame);
+      const bool us_now = vein_snap && next_us < nus && done + n == us_target(next_us);
+      if (frame_now || us_now) {
+        // The last tick before an image copies what the image needs (every tissue for a frame).
         if (n > 1) loop.run_headless(n - 1);
-        for (SnapshotTissue* t : snaps) t->request();
+        if (frame_now)
+          for (SnapshotTissue* t : snaps) t->request();
+        else
+          vein_snap->request();
         loop.run_headless(1);
-        take_frame(next_frame++, true);
+        if (frame_now) take_frame(next_frame++, true);
       } else {
         loop.run_headless(n);
       }
       done += n;
-      while (next_us < nus && us_target(next_us) == done) take_ultrasound(next_us++);
+      while (next_us < nus && us_target(next_us) == done) take_ultrasound(next_us++, true, true);
       if (options.progress) options.progress(double(done) / double(ticks));
     }
   }
