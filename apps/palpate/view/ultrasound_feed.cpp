@@ -26,6 +26,13 @@ bool UltrasoundFeed::take(UltrasoundImage& out) {
   return true;
 }
 
+void UltrasoundFeed::set_vein_wall(std::span<const Vec3f> rest, std::span<const Vec3f> now) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  wall_rest_.assign(rest.begin(), rest.end());
+  wall_now_.assign(now.begin(), now.end());
+  wall_fresh_ = true;
+}
+
 void UltrasoundFeed::run() {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
@@ -34,6 +41,17 @@ void UltrasoundFeed::run() {
     ProbePose probe;
     NeedlePose needle;
     source_(probe, needle);
+    bool wall = false;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (wall_fresh_) {
+        work_rest_ = wall_rest_;
+        work_now_ = wall_now_;
+        wall_fresh_ = false;
+        wall = true;
+      }
+    }
+    if (wall) imager_.set_vein_wall(work_rest_, work_now_);
     const auto t0 = Clock::now();
     imager_.render(probe, needle, std::chrono::duration<double>(t0 - start).count(), work_);
     render_s_.store(std::chrono::duration<double>(Clock::now() - t0).count(), std::memory_order_relaxed);

@@ -10,7 +10,9 @@
 #include <cstdint>
 #include <functional>
 #include <mutex>
+#include <span>
 #include <thread>
+#include <vector>
 
 namespace palpate::view {
 
@@ -29,6 +31,9 @@ class UltrasoundFeed {
   // GUI thread: copy the newest image into `out` when there is one not taken yet; true if so.
   // The lock is held only between this thread and the feed's, for one copy.
   bool take(UltrasoundImage& out);
+  // GUI thread: the vein's wall as the needle's tissue has it now (its particles at rest and now,
+  // point for point); the next image shows it tented (UltrasoundImager::set_vein_wall).
+  void set_vein_wall(std::span<const Vec3f> rest, std::span<const Vec3f> now);
   std::uint64_t rendered() const { return rendered_.load(std::memory_order_relaxed); }
   double last_render_seconds() const { return render_s_.load(std::memory_order_relaxed); }
 
@@ -42,6 +47,9 @@ class UltrasoundFeed {
   std::mutex mutex_;
   UltrasoundImage shared_;     // under mutex_
   bool fresh_ = false;         // under mutex_
+  std::vector<Vec3f> wall_rest_, wall_now_;  // under mutex_: the GUI's newest vein wall
+  bool wall_fresh_ = false;                  // under mutex_
+  std::vector<Vec3f> work_rest_, work_now_;  // the feed thread's copies
   std::atomic<std::uint64_t> rendered_{0};
   std::atomic<double> render_s_{0};
   std::atomic<bool> quit_{false};

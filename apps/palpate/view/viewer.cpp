@@ -267,6 +267,8 @@ class Viewer {
   bool moving_probe_ = false;   // shift + right drag: the probe follows the cursor over the skin
   double probe_press_ = 0.0015; // m, the face's depth below the skin under the cursor (wheel)
   bool show_ultrasound_ = true, show_plane_ = true;
+  int vein_ = -1;                     // the scene's vein tissue: the image shows its wall tented
+  std::vector<Vec3f> vein_rest_;      // its particles at rest
 
   GLFWwindow* window_ = nullptr;
   bool imgui_ready_ = false;
@@ -589,6 +591,9 @@ void Viewer::start_probe() {
   probe_feeder_->set_orientation_target(facing);
   probe_press_ = std::max(0.0, -start.y());
   probe_model_ = std::make_unique<NeckCompression>(*scene_.anatomy, p);
+  for (size_t i = 0; i < scene_.tissues.size() && i < tissues_.size() && vein_ < 0; ++i)
+    if (scene_.tissues[i].role == "vein") vein_ = int(i);
+  if (vein_ >= 0) vein_rest_ = tissues_[size_t(vein_)]->current().points;  // built, not yet stepped
   const bool needle = scene_.tool.kind == "needle";
   const Vec3 axis = scene_axis();
   const double radius = scene_.tool.radius, length = scene_.tool.length;
@@ -609,7 +614,13 @@ void Viewer::start_probe() {
 }
 
 void Viewer::update_ultrasound() {
-  if (!us_feed_ || !us_feed_->take(us_image_) || us_image_.width <= 0) return;
+  if (!us_feed_) return;
+  // The vein's wall as update_views() just took it from the haptic thread.
+  if (vein_ >= 0 && size_t(vein_) < tissues_.size()) {
+    const std::vector<Vec3f>& now = tissues_[size_t(vein_)]->current().points;
+    if (now.size() == vein_rest_.size()) us_feed_->set_vein_wall(vein_rest_, now);
+  }
+  if (!us_feed_->take(us_image_) || us_image_.width <= 0) return;
   const size_t n = size_t(us_image_.width) * size_t(us_image_.height);
   us_rgba_.resize(n * 4);
   for (size_t i = 0; i < n; ++i) {
