@@ -103,3 +103,36 @@ TEST(RenderFrame, TheNeedleIsDrawnAlongTheAxisOfItsTick) {
   ASSERT_TRUE(turned.ok()) << turned.error().message;
   EXPECT_EQ(turned->tool->axis, tilted);
 }
+
+TEST(RenderFrame, TheProbeIsABoxOnItsFaceAndItsImagePlaneAnOutlineUnderIt) {
+  SceneDef scene;
+  scene.camera = CameraDef{};
+  const std::vector<TissueSnapshot> none;
+  std::vector<std::vector<float>> storage;
+  std::vector<std::vector<uint32_t>> idx;
+  FrameProbe probe;  // 38 × 10 mm, facing −y, its array along x, 40 mm deep
+  probe.position = Vec3(0.001, -0.002, 0.003);
+  probe.orientation = Quat(Eigen::AngleAxisd(0.3, Vec3::UnitZ()));  // tilted across the array
+  auto rs = frame_scene(scene, none, Vec3::Zero(), Vec3::Zero(), {}, storage, idx, std::nullopt, &probe);
+  ASSERT_TRUE(rs.ok()) << rs.error().message;
+  ASSERT_EQ(rs->surfaces.size(), 2u);  // the box, the plane
+  ASSERT_EQ(rs->lines.size(), 1u);     // the plane's outline
+  const Vec3 beam = probe.orientation * probe.def.axis, lateral = probe.orientation * probe.def.lateral;
+  const Vec3 elevation = beam.cross(lateral);
+  // Every box corner lies within the footprint, between the face and 30 mm above it.
+  const RenderSurface& box = rs->surfaces[0];
+  ASSERT_EQ(box.positions.size(), 24u * 3);
+  for (size_t k = 0; k < 24; ++k) {
+    const Vec3 d = Vec3(box.positions[3 * k], box.positions[3 * k + 1], box.positions[3 * k + 2]) - probe.position;
+    EXPECT_NEAR(std::abs(d.dot(lateral)), 0.5 * probe.def.width, 1e-6);
+    EXPECT_NEAR(std::abs(d.dot(elevation)), 0.5 * probe.def.thickness, 1e-6);
+    EXPECT_TRUE(std::abs(d.dot(beam)) < 1e-6 || std::abs(d.dot(beam) + probe.height) < 1e-6) << k;
+  }
+  // The outline: the face's width along the array, the imaging depth along the beam, in the plane.
+  const RenderLines& l = rs->lines[0];
+  ASSERT_EQ(l.points.size(), 4u);
+  for (const Vec3f& p : l.points) EXPECT_NEAR((p.cast<double>() - probe.position).dot(elevation), 0.0, 1e-6);
+  EXPECT_NEAR((l.points[2] - l.points[1]).cast<double>().dot(beam), probe.def.depth, 1e-6);
+  EXPECT_NEAR((l.points[1] - l.points[0]).norm(), probe.def.width, 1e-6);
+  EXPECT_LT(box.opacity, 1.0f) << "see-through: the needle's tip ends under it";
+}

@@ -184,6 +184,24 @@ TEST_F(View, ANeedlePressedThroughTheSkinCountsTheSkinPunctureLive) {
   EXPECT_NEAR(number_after(r.out, "deepest_depth_m:"), -y, 2e-4) << r.out;
 }
 
+TEST_F(View, TheCvcSceneHoldsTheUltrasoundProbeOnTheSkinAndShowsItsImage) {
+  // data/scenes/cvc.yaml has a probe: a second virtual device resting on the neck (its first
+  // waypoint: about 0.4 N), its force through its own safety filter, and the live ultrasound panel.
+  Ran r = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 60 --exit --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const double f = number_after(r.out, "probe_force_N:");
+  EXPECT_GT(f, 0.3) << r.out;
+  EXPECT_LT(f, 0.5) << r.out;
+  EXPECT_LE(number_after(r.out, "probe_max_force_N:"), 3.3 + 1e-9) << r.out;
+  const size_t at = r.out.find("ultrasound_images: ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  unsigned long rendered = 0, shown = 0;
+  ASSERT_EQ(std::sscanf(r.out.c_str() + at, "ultrasound_images: %lu rendered, %lu shown", &rendered, &shown), 2) << r.out;
+  EXPECT_GE(rendered, 1u) << r.out;
+  EXPECT_GE(shown, 1u) << r.out;
+  EXPECT_LE(shown, rendered) << r.out;
+}
+
 TEST_F(View, AProbeOffTheTissueIsAClearErrorNotAHang) {
   Ran r = view(scene_.string() + " --frames 2 --exit --no-panels --probe 1,1,0.001");
   EXPECT_EQ(r.code, 1) << r.out;

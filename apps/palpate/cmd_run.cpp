@@ -63,6 +63,7 @@ struct RunArgs {
   std::string coupling;     // overrides device.coupling
   double physics_rate = 0;  // Hz; > 0 steps every tissue on its own thread at this rate
   int frames = 0;
+  int ultrasound = 0;
   FrameOptions frame;
 };
 
@@ -84,6 +85,7 @@ int run_command(const RunArgs& a) {
   if (a.realtime) prepare_realtime_process();
   if (a.physics_rate > 0) opt.physics_dt.assign(scene->tissues.size(), 1.0 / a.physics_rate);
   opt.frames = a.frames;
+  opt.ultrasound = a.ultrasound;
   opt.frame_options = a.frame;
   const bool bar = !a.quiet && stderr_is_terminal();
   if (bar) {
@@ -125,6 +127,11 @@ int run_command(const RunArgs& a) {
                  c.non_finite, c.step_failed, c.overrun, c.stalled, c.device_failed);
     if (s.recorder_dropped > 0) fmt::print("recorder   {} rows dropped\n", s.recorder_dropped);
     fmt::print("max force  {:.3f} N\n", s.max_force);
+    for (const LoopToolStats& t : s.tools) {
+      const SafetyCounters& tc = t.safety;
+      fmt::print("{:<10} max force {:.3f} N (limit {:.3f} N); clamped {}, rate-limited {}, device failed {}, overrun {}\n",
+                 t.name, t.max_force, t.max_force_limit, tc.clamped, tc.rate_limited, tc.device_failed, tc.overrun);
+    }
     for (const RunEvent& e : s.events)
       fmt::print("event      {:.3f} s  {:<9} {:<12} depth {:.2f} mm  force {:.3f} N\n", e.time,
                  e.kind, e.tissue, e.depth * 1e3, e.force);
@@ -145,6 +152,15 @@ int run_command(const RunArgs& a) {
                  s.frames.front().file.string(), s.frames.front().time, s.frames.back().file.string(),
                  s.frames.back().time);
     }
+    auto list = [](const std::vector<RunFrame>& v) {
+      if (v.size() <= 10) {
+        for (const RunFrame& f : v) fmt::print("           {}  (t = {:.3f} s)\n", f.file.string(), f.time);
+      } else {
+        fmt::print("           {} images: {} (t = {:.3f} s) ... {} (t = {:.3f} s)\n", v.size(),
+                   v.front().file.string(), v.front().time, v.back().file.string(), v.back().time);
+      }
+    };
+    list(s.ultrasound);
   }
   if (!s.plot_error.empty()) fmt::print(stderr, "palpate run: no plots: {}\n", s.plot_error);
   // A tissue whose step failed on every tick (a predictor that resets it each step) sent no force
@@ -165,6 +181,10 @@ int run_command(const RunArgs& a) {
                "the last tick (summary.json: \"interrupted\": true)\n",
                sig == SIGTERM ? "SIGTERM" : "SIGINT", s.ticks, double(s.ticks) * s.dt);
     return 128 + sig;
+  }
+  if (!s.ultrasound_error.empty()) {
+    fmt::print(stderr, "palpate run: ultrasound: {}\n", s.ultrasound_error);
+    return 1;
   }
   return 0;
 }
@@ -194,6 +214,10 @@ void add_run_command(CLI::App& app) {
   run->add_option("--frames", args->frames,
                   "Write N PNG frames (frame_000.png, ...) evenly spaced over the run, drawn "
                   "off-screen from the scene's camera")
+      ->check(CLI::NonNegativeNumber);
+  run->add_option("--ultrasound", args->ultrasound,
+                  "Write N ultrasound images (us_000.png, ...) of the plane under the scene's probe, "
+                  "evenly spaced over the run as --frames are (needs a 'probe' in the scene)")
       ->check(CLI::NonNegativeNumber);
   run->add_flag("--frame-particles", args->frame.particles, "Frames: draw the particles / masses");
   run->add_flag("--frame-links", args->frame.links, "Frames: draw neighbour links / springs");

@@ -76,6 +76,39 @@ struct TimingFigures {
   double median = 0, p99 = 0, max = 0;
 };
 
+// A tool beside the needle (the ultrasound probe in the other hand): its own device, its own force
+// law and its own safety filter (ForceSafety with the device's limits: finite, clamped to its
+// max_force, rate-limited to its max_force_rate, ramped in, zero on a failed read or an overrun),
+// read, evaluated and written on the same tick as the needle; zero force at stop. Not owned.
+struct LoopTool {
+  std::string name = "probe";       // prefix of its CSV columns (probe_x, ..., probe_force_N)
+  Device* device = nullptr;         // its limits() bound its safety filter
+  ToolForceModel* model = nullptr;  // force(position, orientation, t) on the haptic thread
+  double ramp_in = 0.1;             // s, its forces ramp in from zero at start and after a fault
+};
+
+// One tool's newest tick, readable from any thread, never torn (a sequence lock the haptic thread
+// never waits on). Tool 0 is the needle: `position` its tip as the tissues saw it, `axis` its
+// direction; tools 1.. are the extra tools in create()'s order, `axis` unused.
+struct ToolSample {
+  bool valid = false;                    // false until the first tick
+  double time = 0;                       // s, the tick's time
+  std::uint64_t tick = 0;                // ticks done when it was taken (1 = the first)
+  Vec3 position = Vec3::Zero();          // m
+  Quat orientation = Quat::Identity();   // unit, the device's
+  Vec3 axis = Vec3(0, -1, 0);            // unit, the needle's direction (tool 0)
+  Vec3 force = Vec3::Zero();             // N, the force sent to its device
+};
+
+// An extra tool's figures (LoopStats::tools).
+struct LoopToolStats {
+  std::string name;
+  double max_force = 0;               // N, largest force sent to its device
+  double max_force_limit = 0;         // N, its device's limit
+  SafetyCounters safety;              // its own filter's counters
+  Vec3 last_force = Vec3::Zero();     // N
+};
+
 // The loop's statistics, readable live from any thread (for a viewer) and at the end.
 struct LoopStats {
   std::uint64_t ticks = 0;
@@ -91,6 +124,7 @@ struct LoopStats {
   Vec3 last_position = Vec3::Zero();  // m, the device's last position
   bool realtime_priority = false;     // whether SCHED_FIFO was granted
   bool running = false;
+  std::vector<LoopToolStats> tools;   // the extra tools (create()'s order)
 };
 
 // Process-wide settings for a realtime haptic thread, as realtime Linux applications make them
@@ -110,8 +144,10 @@ RealtimeProcess prepare_realtime_process() noexcept;
 // destroying the tissues or device.
 class HapticLoop {
  public:
+  // `tools`: extra tools beside the needle, each with its own device and safety (LoopTool).
   static Result<std::unique_ptr<HapticLoop>> create(Device& device, std::vector<LoopTissue> tissues,
-                                                    const LoopSettings& settings);
+                                                    const LoopSettings& settings,
+                                                    std::vector<LoopTool> tools = {});
   ~HapticLoop();
   HapticLoop(const HapticLoop&) = delete;
   HapticLoop& operator=(const HapticLoop&) = delete;
@@ -127,9 +163,14 @@ class HapticLoop {
   void run_headless(std::uint64_t ticks);
 
   LoopStats stats() const;
+  // Tool i's newest tick (0 = the needle, 1.. the extra tools), from any thread; lock- and wait-free.
+  ToolSample tool_sample(size_t i) const noexcept;
+  size_t tool_count() const noexcept;  // 1 + the extra tools
+
   // Finish the recording (rename <csv>.part to <csv>); after stop(). The kept series are
   // t, tool_x, tool_y, tool_z, force_x, force_y, force_z, force_N, tool_qw, tool_qx, tool_qy,
-  // tool_qz (the device's orientation, unit), one vector each.
+  // tool_qz (the device's orientation, unit), one vector each; then per extra tool (named N)
+  // N_x, N_y, N_z, N_qw, N_qx, N_qy, N_qz, N_force_x, N_force_y, N_force_z, N_force_N.
   Status finish_recording();
   const std::vector<std::vector<double>>& series() const;
   // Tissue events drained during the run, in order (after finish_recording()); the loop adds a
@@ -141,7 +182,8 @@ class HapticLoop {
     double depth = 0, force = 0;
   };
   const std::vector<Event>& events() const;
-  // Column names of the CSV (the figures of each tissue are prefixed with its name).
+  // Column names of the CSV (the figures of each tissue are prefixed with its name; each extra
+  // tool's pose, force and safety events follow them, prefixed with the tool's name).
   const std::vector<std::string>& columns() const;
 
   struct Impl;

@@ -119,20 +119,32 @@ struct FrameOptions {
                                   // shows in the lumen); false: every surface opaque
 };
 
+// The ultrasound probe in a frame: a box of its footprint (width along the array × thickness)
+// standing `height` tall on its face, and the outline of the image plane under it (width × depth).
+struct FrameProbe {
+  ProbeDef def;                          // footprint, axis, lateral, depth
+  Vec3 position = Vec3::Zero();          // m, the centre of its face
+  Quat orientation = Quat::Identity();   // unit, its device's (identity: facing def.axis)
+  double height = 0.03;                  // m
+};
+
 // Draw one frame: each tissue's surface (a grid snapshot as the seed's Bézier patches, a
 // triangle snapshot smoothed with PN triangles) coloured by its role when `tissues` are the
 // scene's, in order (scene.tissues[i].role: skin, fat, muscle, vein, artery; other roles get the
 // layer palette by position, as before roles existed), the tool at `tip` (a needle along `tool_axis`,
 // unit, as it pointed at that tick; none = the scene's tool.axis), the force arrow, from the
-// scene's camera (or a camera framing every snapshot when the scene has none). Allocates:
-// call it off the haptic thread, from copied snapshots.
+// scene's camera (or a camera framing every snapshot when the scene has none), and the probe with
+// its image plane when `probe` is given. Allocates: call it off the haptic thread, from copied
+// snapshots.
 Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                                 const Vec3& tip, const Vec3& force, const FrameOptions& options,
                                 std::vector<std::vector<float>>& storage,
                                 std::vector<std::vector<uint32_t>>& index_storage,
-                                const std::optional<Vec3>& tool_axis = std::nullopt);
+                                const std::optional<Vec3>& tool_axis = std::nullopt,
+                                const FrameProbe* probe = nullptr);
 Status render_frame_png(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                         const Vec3& tip, const Vec3& force, const std::filesystem::path& file,
-                        const FrameOptions& options = {}, const std::optional<Vec3>& tool_axis = std::nullopt);
+                        const FrameOptions& options = {}, const std::optional<Vec3>& tool_axis = std::nullopt,
+                        const FrameProbe* probe = nullptr);
 
 }  // namespace palpate

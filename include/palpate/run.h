@@ -35,6 +35,12 @@ struct RunOptions {
   // at a tick boundary, the force ramps to zero within the rate limit, and the outputs are written
   // as for a whole run, up to the last tick run (summary.json: "interrupted": true). Null: never.
   const std::atomic<bool>* interrupt = nullptr;
+  // Ultrasound: `ultrasound` B-mode PNGs (us_000.png, ...) of the plane under the scene's probe,
+  // spaced over the run as the frames are, each from the probe's and the needle's pose at its tick
+  // and that tick's time (the arterial pulse), the vein's wall tented where the needle's tissue
+  // pushes it (the scene's `vein` tissue handed over through a SnapshotTissue, as frames are);
+  // drawn on this thread, off the haptic thread. Needs the scene's `probe`.
+  int ultrasound = 0;
 };
 
 struct RunFrame {
@@ -68,6 +74,9 @@ struct RunSummary {
   std::string plot_error;                         // why plots are missing, if they are
   std::vector<RunFrame> frames;                   // frames written, if asked for
   std::string frame_error;                        // why frames are missing, if they are
+  std::vector<RunFrame> ultrasound;               // ultrasound images written, if asked for
+  std::string ultrasound_error;                   // why they are missing, if they are
+  std::vector<LoopToolStats> tools;               // the extra tools (the probe): force, safety
 };
 
 // What a run of `ticks` ticks recording `columns` columns writes and holds (estimates): run.csv's
@@ -81,7 +90,9 @@ struct RunFootprint {
 };
 RunFootprint run_footprint(std::uint64_t ticks, size_t columns);
 
-// Run `scene` for its duration at its fixed tick, with its device; stream `run.csv` (through
+// Run `scene` for its duration at its fixed tick, with its device (and, when the scene has a
+// probe, the probe's device as a second tool with its own safety filter, pressing the neck:
+// NeckCompression); stream `run.csv` (through
 // `run.csv.part`, renamed at the end) and write `summary.json` atomically into the output directory.
 Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options = {});
 

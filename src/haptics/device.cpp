@@ -10,13 +10,17 @@ Vec3 needle_axis(const Vec3& tool_axis, const Quat& orientation) noexcept {
 }
 
 Result<std::unique_ptr<Device>> make_device(const SceneDef& scene) {
-  const DeviceDef& d = scene.device;
+  return make_device(scene.device, scene.tool.axis,
+                     scene.file.empty() ? std::string("scene") : scene.file.string());
+}
+
+Result<std::unique_ptr<Device>> make_device(const DeviceDef& d, const Vec3& tool_axis,
+                                            const std::string& where, const std::string& key) {
   DeviceLimits limits;
   limits.max_force = d.max_force;
   limits.max_force_rate = d.max_force_rate;
   limits.stiffness = d.stiffness;
   limits.damping = d.damping;
-  const std::string where = scene.file.empty() ? std::string("scene") : scene.file.string();
   if (d.kind == "scripted") {
     std::vector<Waypoint> points = d.waypoints;
     if (!d.trajectory.empty()) {
@@ -24,17 +28,17 @@ Result<std::unique_ptr<Device>> make_device(const SceneDef& scene) {
       if (!loaded) return loaded.error();
       points = std::move(*loaded);
     }
-    return std::unique_ptr<Device>(new ScriptedDevice(std::move(points), limits, scene.tool.axis));
+    return std::unique_ptr<Device>(new ScriptedDevice(std::move(points), limits, tool_axis));
   }
   if (d.kind == "replay") {
     if (d.recording.empty())
-      return Error{where + ": device kind 'replay' needs device.recording (a run's run.csv)"};
+      return Error{where + ": " + key + " kind 'replay' needs " + key + ".recording (a run's run.csv)"};
     auto samples = load_recording_csv(d.recording);
     if (!samples) return samples.error();
     return std::unique_ptr<Device>(new ReplayDevice(std::move(*samples), limits));
   }
   if (d.kind == "openhaptics") return open_openhaptics(d.hd_library, d.hd_device, limits);
-  return Error{where + ": device kind '" + d.kind +
+  return Error{where + ": " + key + " kind '" + d.kind +
                "' is not one of scripted | replay | openhaptics (use kind: scripted)"};
 }
 

@@ -24,8 +24,8 @@ enum Col : size_t {
   kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kTick,
   kQw, kQx, kQy, kQz, kButtons, kEvents, kFixedColumns
 };
-// The columns kept in memory for series(): t .. force_N, then tool_qw .. tool_qz.
-constexpr size_t kKeptSeries = kForceN + 1 + 4;
+// The columns kept in memory for series(): t .. force_N, then tool_qw .. tool_qz, then each extra
+// tool's pose and force (create()).
 
 // A double shared between threads, written by one.
 struct RelaxedDouble {
@@ -40,6 +40,47 @@ struct RelaxedCount {
   std::uint64_t get() const noexcept { return v.load(std::memory_order_relaxed); }
 };
 
+// A tool's newest tick for readers on other threads: a sequence lock over relaxed atomics (the
+// writer never waits; a reader retries the rare read that overlapped a write). Any number of readers.
+class SampleExchange {
+ public:
+  void publish(const ToolSample& v) noexcept {
+    const std::uint64_t s = seq_.load(std::memory_order_relaxed);
+    seq_.store(s + 1, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    const double d[kN] = {v.time, double(v.tick), v.position.x(), v.position.y(), v.position.z(),
+                          v.orientation.w(), v.orientation.x(), v.orientation.y(), v.orientation.z(),
+                          v.axis.x(), v.axis.y(), v.axis.z(), v.force.x(), v.force.y(), v.force.z()};
+    for (size_t i = 0; i < kN; ++i) v_[i].store(d[i], std::memory_order_relaxed);
+    seq_.store(s + 2, std::memory_order_release);
+  }
+  ToolSample read() const noexcept {
+    double d[kN];
+    std::uint64_t s1 = 0;
+    for (;;) {
+      s1 = seq_.load(std::memory_order_acquire);
+      if (s1 & 1u) continue;
+      for (size_t i = 0; i < kN; ++i) d[i] = v_[i].load(std::memory_order_relaxed);
+      std::atomic_thread_fence(std::memory_order_acquire);
+      if (seq_.load(std::memory_order_relaxed) == s1) break;
+    }
+    ToolSample out;
+    if (s1 == 0) return out;  // nothing published yet
+    out.valid = true;
+    out.time = d[0], out.tick = std::uint64_t(d[1]);
+    out.position = Vec3(d[2], d[3], d[4]);
+    out.orientation = Quat(d[5], d[6], d[7], d[8]);
+    out.axis = Vec3(d[9], d[10], d[11]);
+    out.force = Vec3(d[12], d[13], d[14]);
+    return out;
+  }
+
+ private:
+  static constexpr size_t kN = 15;
+  std::atomic<std::uint64_t> seq_{0};
+  std::atomic<double> v_[kN] = {};
+};
+
 TimingFigures figures_of(const LatencyHistogram& h) {
   return {h.percentile(0.5), h.percentile(0.99), h.max()};
 }
@@ -47,6 +88,22 @@ TimingFigures figures_of(const LatencyHistogram& h) {
 }  // namespace
 
 struct HapticLoop::Impl {
+  // An extra tool (LoopTool): its device's state, its own safety filter and live figures.
+  struct ToolSlot {
+    LoopTool def;
+    ForceSafety safety;
+    DeviceState state;
+    Vec3 last_good_position = Vec3::Zero();
+    Quat last_good_orientation = Quat::Identity();
+    TickFault read_fault = TickFault::none;
+    size_t col = 0;  // its first CSV column
+    RelaxedDouble max_force, fx, fy, fz;
+    RelaxedCount non_finite, step_failed, clamped, rate_limited, overrun, stalled, device_failed;
+    SampleExchange sample;
+    ToolSlot(const LoopTool& t, double ramp) : def(t), safety(t.device->limits(), ramp) {}
+  };
+  static constexpr size_t kToolColumns = 12;  // x y z qw qx qy qz force_x force_y force_z force_N events
+
   struct Slot {
     Tissue* tissue = nullptr;
     std::unique_ptr<PhysicsWorker> worker;  // null: stepped on the haptic thread
@@ -87,9 +144,71 @@ struct HapticLoop::Impl {
   RelaxedDouble m_flashback_time, m_first_skin, m_time_to_flashback, m_deepest;
   std::atomic<bool> running{false}, stop_requested{false}, priority{false};
   std::thread thread;
+  std::vector<std::unique_ptr<ToolSlot>> tools;  // extra tools, in create()'s order
+  SampleExchange needle_sample;                  // tool 0's newest tick
+  size_t kept_series = 0;                        // columns the recorder keeps in memory
 
   Impl(Device& d, const LoopSettings& settings)
       : device(d), s(settings), safety(d.limits(), settings.ramp_in) {}
+
+  // Extra tools, step 1: read each device. A failed read or a non-finite or degenerate pose holds
+  // the last good pose, and that tool's force goes to zero this tick (its own fault only).
+  void read_tools(double t) noexcept {
+    for (auto& tp : tools) {
+      ToolSlot& x = *tp;
+      const bool ok = x.def.device->read(t, x.state);
+      const double qn = x.state.orientation.norm();
+      if (!ok || !x.state.position.allFinite() || !std::isfinite(qn) || !(qn > 1e-6)) {
+        x.read_fault = TickFault::device_failed;
+        x.state.position = x.last_good_position;
+        x.state.orientation = x.last_good_orientation;
+        x.state.velocity.setZero();
+      } else {
+        if (qn != 1.0) x.state.orientation.coeffs() /= qn;
+        x.read_fault = TickFault::none;
+        x.last_good_position = x.state.position;
+        x.last_good_orientation = x.state.orientation;
+      }
+    }
+  }
+
+  // Extra tools, steps 3–6: each tool's force law, its own safety filter, its device, its columns.
+  // `fault`: the needle's tick fault; an overrun (the tick as a whole ran late) zeroes every tool,
+  // a needle-only fault (a failed step, a stalled physics thread, the needle's device) does not.
+  void send_tools(double t, double dt, TickFault fault) noexcept {
+    for (auto& tp : tools) {
+      ToolSlot& x = *tp;
+      TickFault f = x.read_fault;
+      if (f == TickFault::none && fault == TickFault::overrun) f = TickFault::overrun;
+      const Vec3 request = f == TickFault::none ? x.def.model->force(x.state.position, x.state.orientation, t)
+                                                : Vec3(Vec3::Zero());
+      const Vec3 sent = x.safety.filter(request, dt, f);
+      x.def.device->write(sent, Vec3::Zero());
+      double* r = row.data() + x.col;
+      r[0] = x.state.position.x(), r[1] = x.state.position.y(), r[2] = x.state.position.z();
+      r[3] = x.state.orientation.w(), r[4] = x.state.orientation.x();
+      r[5] = x.state.orientation.y(), r[6] = x.state.orientation.z();
+      r[7] = sent.x(), r[8] = sent.y(), r[9] = sent.z();
+      const double fn = sent.norm();
+      r[10] = fn;
+      r[11] = double(x.safety.last_events());
+      if (fn > x.max_force.get()) x.max_force.set(fn);
+      x.fx.set(sent.x()), x.fy.set(sent.y()), x.fz.set(sent.z());
+      const SafetyCounters& c = x.safety.counters();
+      x.non_finite.set(c.non_finite), x.step_failed.set(c.step_failed), x.clamped.set(c.clamped);
+      x.rate_limited.set(c.rate_limited), x.overrun.set(c.overrun), x.stalled.set(c.stalled);
+      x.device_failed.set(c.device_failed);
+      ToolSample smp;
+      smp.time = t, smp.tick = k + 1;
+      smp.position = x.state.position, smp.orientation = x.state.orientation, smp.force = sent;
+      x.sample.publish(smp);
+    }
+  }
+
+  // Zero force to every extra tool (the loop's last word to each device).
+  void zero_tools() noexcept {
+    for (auto& tp : tools) tp->def.device->write(Vec3::Zero(), Vec3::Zero());
+  }
 
   void publish_counters() noexcept {
     const SafetyCounters& c = safety.counters();
@@ -129,6 +248,7 @@ struct HapticLoop::Impl {
       last_good_position = state.position;
       last_good_orientation = state.orientation;
     }
+    read_tools(t);
     const bool virtual_coupling = s.coupling == Coupling::virtual_;
     tool.time = t;
     tool.tip = virtual_coupling ? proxy.position : state.position;
@@ -184,6 +304,7 @@ struct HapticLoop::Impl {
     // 5. Safety, then the device.
     const Vec3 sent = safety.filter(request, dt, fault);
     device.write(sent, Vec3::Zero());
+    send_tools(t, dt, fault);
 
     // 6. Record.
     double* r = row.data();
@@ -230,6 +351,10 @@ struct HapticLoop::Impl {
     px.set(state.position.x()), py.set(state.position.y()), pz.set(state.position.z());
     publish_counters();
     publish_metrics();
+    ToolSample smp;
+    smp.time = t, smp.tick = k;
+    smp.position = tool.tip, smp.orientation = state.orientation, smp.axis = tool.axis, smp.force = sent;
+    needle_sample.publish(smp);
   }
 
   void thread_main() noexcept {
@@ -255,13 +380,22 @@ struct HapticLoop::Impl {
     }
     // The last word is zero, reached within the rate limit one tick at a time (at most 1 s of
     // ticks; a device that allows no faster change gets the zero then).
-    for (std::int64_t i = 0; i * period < 1'000'000'000 && !safety.last().isZero(); ++i) {
+    // Every tool (the probe too) ramps down through its own filter.
+    const auto any_force = [&] {
+      if (!safety.last().isZero()) return true;
+      for (auto& tp : tools)
+        if (!tp->safety.last().isZero()) return true;
+      return false;
+    };
+    for (std::int64_t i = 0; i * period < 1'000'000'000 && any_force(); ++i) {
       sleep_until_ns(next, spin);
       device.write(safety.ramp_down(s.dt), Vec3::Zero());
+      for (auto& tp : tools) tp->def.device->write(tp->safety.ramp_down(s.dt), Vec3::Zero());
       next += period;
     }
     device.write(Vec3::Zero(), Vec3::Zero());
     fx.set(0), fy.set(0), fz.set(0);
+    zero_tools();
     running.store(false, std::memory_order_release);
   }
 };
@@ -274,7 +408,8 @@ HapticLoop::~HapticLoop() {
 }
 
 Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vector<LoopTissue> tissues,
-                                                       const LoopSettings& settings) {
+                                                       const LoopSettings& settings,
+                                                       std::vector<LoopTool> tools) {
   if (!(settings.dt > 0) || !std::isfinite(settings.dt))
     return Error{"haptic loop: dt must be a positive number of seconds"};
   auto impl = std::make_unique<Impl>(device, settings);
@@ -315,6 +450,27 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
                                                   device.limits().stiffness, settings.realtime);
     m.slots.push_back(std::move(sl));
   }
+  for (size_t i = 0; i < tools.size(); ++i) {
+    const LoopTool& t = tools[i];
+    const std::string which = "haptic loop: tool " + std::to_string(i + 1) + " '" + t.name + "'";
+    if (!t.device || !t.model) return Error{which + ": needs a device and a force model"};
+    if (t.name.empty()) return Error{"haptic loop: tool " + std::to_string(i + 1) + " needs a name"};
+    for (const auto& u : m.tools)
+      if (u->def.name == t.name) return Error{which + ": two tools have that name"};
+    if (!(t.ramp_in >= 0) || !std::isfinite(t.ramp_in)) return Error{which + ": ramp_in must be >= 0 s"};
+    auto slot = std::make_unique<Impl::ToolSlot>(t, t.ramp_in);
+    slot->col = m.columns.size();
+    for (const char* c : {"_x", "_y", "_z", "_qw", "_qx", "_qy", "_qz", "_force_x", "_force_y",
+                          "_force_z", "_force_N", "_events"})
+      m.columns.push_back(t.name + c);
+    DeviceState at_start;  // the tool holds this pose if its first reads fail
+    if (t.device->read(0.0, at_start) && at_start.position.allFinite()) {
+      slot->last_good_position = at_start.position;
+      const double qn = at_start.orientation.norm();
+      if (std::isfinite(qn) && qn > 1e-6) slot->last_good_orientation = Quat(at_start.orientation.coeffs() / qn);
+    }
+    m.tools.push_back(std::move(slot));
+  }
   m.publish_metrics();  // the live figures start as "nothing yet" (no flashback time 0 s)
   m.row.assign(m.columns.size(), 0.0);
   m.event_buf.resize(64);
@@ -325,6 +481,11 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
     RecorderOptions ro;
     ro.capacity_rows = settings.recorder_capacity;
     ro.keep_columns = {kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kQw, kQx, kQy, kQz};
+    for (const auto& tp : m.tools) {
+      formats[tp->col + Impl::kToolColumns - 1] = ColumnFormat::safety_events;
+      for (size_t c = 0; c + 1 < Impl::kToolColumns; ++c) ro.keep_columns.push_back(tp->col + c);
+    }
+    m.kept_series = ro.keep_columns.size();
     auto rec = Recorder::open(settings.csv, m.columns, formats, ro);
     if (!rec) return rec.error();
     m.recorder = std::move(*rec);
@@ -350,6 +511,7 @@ void HapticLoop::stop() {
   if (m.thread.joinable()) m.thread.join();
   for (auto& sl : m.slots)
     if (sl.worker) sl.worker->stop();
+  m.zero_tools();  // the haptic thread has ended (or never ran): the tools' last word is zero too
   m.running.store(false);
 }
 
@@ -400,8 +562,30 @@ LoopStats HapticLoop::stats() const {
   st.last_position = Vec3(m.px.get(), m.py.get(), m.pz.get());
   st.realtime_priority = m.priority.load();
   st.running = m.running.load();
+  for (const auto& tp : m.tools) {
+    const Impl::ToolSlot& x = *tp;
+    LoopToolStats ts;
+    ts.name = x.def.name;
+    ts.max_force = x.max_force.get();
+    ts.max_force_limit = x.def.device->limits().max_force;
+    ts.safety.non_finite = x.non_finite.get(), ts.safety.step_failed = x.step_failed.get();
+    ts.safety.clamped = x.clamped.get(), ts.safety.rate_limited = x.rate_limited.get();
+    ts.safety.overrun = x.overrun.get(), ts.safety.stalled = x.stalled.get();
+    ts.safety.device_failed = x.device_failed.get();
+    ts.last_force = Vec3(x.fx.get(), x.fy.get(), x.fz.get());
+    st.tools.push_back(std::move(ts));
+  }
   return st;
 }
+
+ToolSample HapticLoop::tool_sample(size_t i) const noexcept {
+  const Impl& m = *impl_;
+  if (i == 0) return m.needle_sample.read();
+  if (i - 1 < m.tools.size()) return m.tools[i - 1]->sample.read();
+  return {};
+}
+
+size_t HapticLoop::tool_count() const noexcept { return 1 + impl_->tools.size(); }
 
 Status HapticLoop::finish_recording() {
   Impl& m = *impl_;
@@ -409,7 +593,7 @@ Status HapticLoop::finish_recording() {
   if (m.running.load()) return Error{"haptic loop: stop() before finish_recording()"};
   Status st = m.recorder->close();
   m.series.clear();
-  for (size_t i = 0; i < kKeptSeries; ++i) m.series.push_back(m.recorder->kept(i));
+  for (size_t i = 0; i < m.kept_series; ++i) m.series.push_back(m.recorder->kept(i));
   m.events.clear();
   for (const RecorderEvent& e : m.recorder->events())
     m.events.push_back({e.time, e.kind, e.tissue, e.depth, e.force});

@@ -6,6 +6,7 @@
 #include <palpate/safety.h>
 #include <palpate/snapshot_tissue.h>
 #include <palpate/tissue.h>
+#include <palpate/ultrasound.h>
 
 #include "io/plots.h"
 
@@ -112,6 +113,9 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   if (scene.device.kind == "openhaptics" && !options.realtime)
     return Error{where + ": device kind 'openhaptics' needs a realtime run (`palpate run --realtime`, "
                          "RunOptions::realtime): a headless run is not paced by the wall clock"};
+  if (scene.probe && scene.probe->device.kind == "openhaptics" && !options.realtime)
+    return Error{where + ": probe.device kind 'openhaptics' needs a realtime run (`palpate run --realtime`, "
+                         "RunOptions::realtime): a headless run is not paced by the wall clock"};
   auto device = make_device(scene);
   if (!device) return device.error();
   Device& dev = **device;
@@ -129,26 +133,53 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
       if (side > kMaxOffscreenSide)
         return Error{where + ": " + key + ": " + std::to_string(side) + " pixels is more than frames can be drawn "
                      "off-screen (at most " + std::to_string(kMaxOffscreenSide) + "); lower it to run with --frames"};
+  if (options.ultrasound < 0 || std::uint64_t(options.ultrasound) > ticks)
+    return Error{where + ": ultrasound images must be between 0 and the run's " + std::to_string(ticks) +
+                 " ticks, not " + std::to_string(options.ultrasound)};
+  if (options.ultrasound > 0 && !scene.probe)
+    return Error{where + ": ultrasound images need a 'probe' section in the scene (the probe's device, "
+                 "footprint and imaging; docs/scene-format.md), and this scene has none"};
+
+  // The probe: a second tool in the other hand, its own device and safety filter, pressing the
+  // neck (NeckCompression: the force on the probe; the image reads the same model).
+  std::unique_ptr<Device> probe_device;
+  std::unique_ptr<NeckCompression> probe_model;
+  if (scene.probe) {
+    if (!scene.anatomy) return Error{where + ": probe: needs an 'anatomy' (the ultrasound images the generated neck)"};
+    auto pd = make_device(scene.probe->device, scene.probe->axis, where, "probe.device");
+    if (!pd) return pd.error();
+    probe_device = std::move(*pd);
+    probe_model = std::make_unique<NeckCompression>(*scene.anatomy, *scene.probe);
+  }
 
   // Frames: each tissue hands its drawn state over through a SnapshotTissue (allocation-free on
   // the stepping thread); frame k is taken after frame_target(k) ticks have run.
   const auto nframes = static_cast<size_t>(options.frames);
+  const auto nus = static_cast<size_t>(options.ultrasound);
+  // Ultrasound images show the vein's wall tented where the needle pushes it: the scene's `vein`
+  // tissue (its first) hands its particles over the same way, at rest and at each image's tick.
+  int vein = -1;
+  if (nus > 0 && tissues.size() == scene.tissues.size())
+    for (size_t i = 0; i < scene.tissues.size() && vein < 0; ++i)
+      if (scene.tissues[i].role == "vein") vein = int(i);
   std::vector<SnapshotTissue*> snaps;
-  if (nframes > 0) {
+  if (nframes > 0 || vein >= 0) {
     for (auto& t : tissues) {
       auto wrapped = std::make_unique<SnapshotTissue>(std::move(t));
       snaps.push_back(wrapped.get());
       t = std::move(wrapped);
     }
   }
-  auto frame_target = [&](size_t k) -> std::uint64_t {
-    if (nframes == 1) return ticks;
-    return 1 + static_cast<std::uint64_t>(
-                   std::llround(double(k) * double(ticks - 1) / double(nframes - 1)));
+  // Image k of n is taken after target(k, n) ticks: the first after the first tick, the last at the end.
+  auto target_of = [&](size_t k, size_t n) -> std::uint64_t {
+    if (n == 1) return ticks;
+    return 1 + static_cast<std::uint64_t>(std::llround(double(k) * double(ticks - 1) / double(n - 1)));
   };
+  auto frame_target = [&](size_t k) { return target_of(k, nframes); };
   const int digits = nframes > 1000 ? int(std::to_string(nframes - 1).size()) : 3;
   std::vector<RunFrame> frames;
   std::string frame_error;
+  HapticLoop* loop_ptr = nullptr;  // set once the loop is built: the frames draw the probe's pose
   std::vector<TissueSnapshot> frame_snaps(snaps.size());
   // Draw frame k from the newest copies; `direct`: nothing steps the tissues now (headless, or the
   // realtime loop has ended), so a tissue that has not published since the request (a multi-rate
@@ -170,7 +201,14 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     if (!frame_error.empty()) return;
     const fs::path file = out / fmt::format("frame_{:0{}}.png", k, digits);
     const std::optional<Vec3> axis = tool.stepped ? std::optional<Vec3>(tool.axis) : std::nullopt;
-    if (Status s = render_frame_png(scene, frame_snaps, tool.tip, force, file, options.frame_options, axis); !s)
+    std::optional<FrameProbe> probe;
+    if (scene.probe && loop_ptr) {
+      const ToolSample ps = loop_ptr->tool_sample(1);
+      probe = FrameProbe{*scene.probe, ps.position, ps.orientation};
+    }
+    if (Status s = render_frame_png(scene, frame_snaps, tool.tip, force, file, options.frame_options, axis,
+                                    probe ? &*probe : nullptr);
+        !s)
       frame_error = s.error().message;
     else
       frames.push_back({tool.time, file});
@@ -218,9 +256,53 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   std::vector<LoopTissue> lt;
   for (size_t i = 0; i < tissues.size(); ++i)
     lt.push_back({tissues[i].get(), i < options.physics_dt.size() ? options.physics_dt[i] : 0.0});
-  auto built = HapticLoop::create(dev, std::move(lt), ls);
+  std::vector<LoopTool> extra;
+  if (probe_device) extra.push_back({"probe", probe_device.get(), probe_model.get(), scene.probe->device.ramp_in});
+  auto built = HapticLoop::create(dev, std::move(lt), ls, std::move(extra));
   if (!built) return built.error();
   HapticLoop& loop = **built;
+  loop_ptr = &loop;
+
+  // Ultrasound images: image k after us_target(k) ticks, from the newest tick's probe and needle
+  // (the loop's tool samples; in a headless run exactly that tick), on this thread.
+  auto us_target = [&](size_t k) { return target_of(k, nus); };
+  SnapshotTissue* vein_snap = vein >= 0 ? snaps[size_t(vein)] : nullptr;
+  std::vector<Vec3f> vein_rest;  // the vein's particles before the first step
+  if (vein_snap) vein_rest = vein_snap->latest().points;
+  std::unique_ptr<UltrasoundImager> imager;
+  if (nus > 0) imager = std::make_unique<UltrasoundImager>(*scene.anatomy, *scene.probe);
+  UltrasoundImage us_image;
+  std::vector<RunFrame> us_frames;
+  std::string us_error;
+  const int us_digits = nus > 1000 ? int(std::to_string(nus - 1).size()) : 3;
+  // `swap`: take the vein's newest hand-over (false while a frame waits for its own, realtime:
+  // the image then reads the one the frames have); `direct`: nothing steps now, copy it if stale.
+  auto take_ultrasound = [&](size_t k, bool swap, bool direct) {
+    if (!us_error.empty()) return;
+    if (vein_snap) {
+      bool fresh = false;
+      if (swap) vein_snap->latest(&fresh);
+      if (swap && direct && !fresh) {
+        vein_snap->publish_last_step();
+        vein_snap->latest();
+      }
+      imager->set_vein_wall(vein_rest, vein_snap->current().points);
+    }
+    const ToolSample needle = loop.tool_sample(0), probe = loop.tool_sample(1);
+    NeedlePose np;
+    np.present = scene.tool.kind == "needle" && needle.valid;
+    np.tip = needle.position;
+    np.axis = needle.axis;
+    np.radius = scene.tool.radius;
+    np.length = scene.tool.length;
+    imager->render({probe.position, probe.orientation}, np, probe.time, us_image);
+    const fs::path file = out / fmt::format("us_{:0{}}.png", k, us_digits);
+    if (Status s = write_ultrasound_png(us_image, file); !s)
+      us_error = s.error().message;
+    else
+      us_frames.push_back({probe.time, file});
+  };
+  size_t next_us = 0;
 
   // --- the run: the loop's own thread paced by the wall clock, or ticks as fast as they go here.
   size_t next_frame = 0;
@@ -235,7 +317,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     // are rasterised on this thread alone, unless the user set LP_NUM_THREADS.
     if (nframes > 0) ::setenv("LP_NUM_THREADS", "0", /*overwrite=*/0);
     if (Status s = loop.start(); !s) return s.error();
-    bool requested = false;
+    bool requested = false, us_requested = false;
     std::vector<char> got(snaps.size(), 0);
     auto last_progress = std::chrono::steady_clock::now();
     for (LoopStats st = loop.stats(); st.running; st = loop.stats()) {
@@ -247,6 +329,15 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
       if (options.progress && now - last_progress > std::chrono::milliseconds(50)) {
         options.progress(double(st.ticks) / double(std::max<std::uint64_t>(1, ticks)));
         last_progress = now;
+      }
+      if (vein_snap && next_us < nus && !us_requested && st.ticks + 3 >= us_target(next_us)) {
+        vein_snap->request();  // served by the next step
+        us_requested = true;
+      }
+      if (next_us < nus && st.ticks >= us_target(next_us)) {
+        take_ultrasound(next_us++, !requested, false);
+        us_requested = false;
+        continue;
       }
       if (next_frame < nframes && !requested && st.ticks + 3 >= frame_target(next_frame)) {
         for (SnapshotTissue* t : snaps) t->request();
@@ -267,11 +358,13 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
           continue;
         }
       }
-      std::this_thread::sleep_for(std::chrono::milliseconds(next_frame < nframes ? 1 : 50));
+      std::this_thread::sleep_for(std::chrono::milliseconds(next_frame < nframes || next_us < nus ? 1 : 50));
     }
     loop.wait();
-    if (loop.stats().ticks == ticks)
+    if (loop.stats().ticks == ticks) {  // an interrupted run has no images past its end
       for (; next_frame < nframes; ++next_frame) take_frame(next_frame, true);
+      for (; next_us < nus; ++next_us) take_ultrasound(next_us, true, true);
+    }
     if (options.progress) options.progress(1.0);
   } else {
     // Ticks in runs of at most 100, looking at the interrupt between them; false when it came.
@@ -286,16 +379,24 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     for (std::uint64_t done = 0; done < ticks;) {
       std::uint64_t n = std::min(chunk, ticks - done);
       if (next_frame < nframes) n = std::min(n, frame_target(next_frame) - done);
-      if (next_frame < nframes && done + n == frame_target(next_frame)) {
+      if (next_us < nus) n = std::min(n, us_target(next_us) - done);
+      const bool frame_now = next_frame < nframes && done + n == frame_target(next_frame);
+      const bool us_now = vein_snap && next_us < nus && done + n == us_target(next_us);
+      if (frame_now || us_now) {
+        // The last tick before an image copies what the image needs (every tissue for a frame).
         if (n > 1 && !run_ticks(n - 1)) break;
         if (interrupted()) break;
-        for (SnapshotTissue* t : snaps) t->request();
+        if (frame_now)
+          for (SnapshotTissue* t : snaps) t->request();
+        else
+          vein_snap->request();
         loop.run_headless(1);
-        take_frame(next_frame++, true);
+        if (frame_now) take_frame(next_frame++, true);
       } else if (!run_ticks(n)) {
         break;
       }
       done += n;
+      while (next_us < nus && us_target(next_us) == done) take_ultrasound(next_us++, true, true);
       if (options.progress) options.progress(double(done) / double(ticks));
     }
   }
@@ -360,6 +461,16 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
                  {"clamped", sc.clamped}, {"rate_limited", sc.rate_limited},
                  {"overrun", sc.overrun}, {"stalled", sc.stalled},
                  {"device_failed", sc.device_failed}, {"max_force_N", dev.limits().max_force}};
+  // The probe (the other hand's tool): its largest force and its own safety filter's counters.
+  summary.tools = st.tools;
+  for (const LoopToolStats& t : st.tools) {
+    const SafetyCounters& c = t.safety;
+    j[t.name] = {{"max_force_N", t.max_force},
+                 {"safety", {{"non_finite", c.non_finite}, {"step_failed", c.step_failed},
+                             {"clamped", c.clamped}, {"rate_limited", c.rate_limited},
+                             {"overrun", c.overrun}, {"stalled", c.stalled},
+                             {"device_failed", c.device_failed}, {"max_force_N", t.max_force_limit}}}};
+  }
   j["recorder_dropped"] = st.recorder_dropped;
   j["tissues"] = nlohmann::json::array();
   for (const auto& t : tissues) j["tissues"].push_back(t->name());
@@ -401,6 +512,14 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     for (const RunFrame& f : summary.frames)
       j["outputs"]["frames"].push_back({{"file", f.file.filename().string()}, {"time_s", f.time}});
     if (!summary.frame_error.empty()) j["outputs"]["frame_error"] = summary.frame_error;
+  }
+  summary.ultrasound = std::move(us_frames);
+  summary.ultrasound_error = std::move(us_error);
+  if (nus > 0) {
+    j["outputs"]["ultrasound"] = nlohmann::json::array();
+    for (const RunFrame& f : summary.ultrasound)
+      j["outputs"]["ultrasound"].push_back({{"file", f.file.filename().string()}, {"time_s", f.time}});
+    if (!summary.ultrasound_error.empty()) j["outputs"]["ultrasound_error"] = summary.ultrasound_error;
   }
   if (Status s = write_file_atomic(summary.summary_json, j.dump(2) + "\n"); !s) return s.error();
   return summary;

@@ -51,19 +51,96 @@ CameraDef framing_camera(std::span<const TissueSnapshot> tissues, const Vec3& ti
   return c;
 }
 
+// The probe's box (24 vertices: flat faces) and its image plane's outline (4 points), appended to
+// `storage` (positions, normals, outline points as floats) and `index_storage` (the box's triangles).
+void add_probe(const FrameProbe& p, RenderScene& rs, std::vector<std::vector<float>>& storage,
+               std::vector<std::vector<uint32_t>>& index_storage) {
+  const Quat q = p.orientation.normalized();
+  const Vec3 beam = (q * p.def.axis).normalized();
+  const Vec3 lateral = (q * p.def.lateral).normalized();
+  const Vec3 elevation = beam.cross(lateral).normalized();
+  const Vec3 hx = 0.5 * p.def.width * lateral, hz = 0.5 * p.def.thickness * elevation;
+  const Vec3 up = -p.height * beam;  // the box stands on its face, away from the skin
+  const Vec3 c = p.position;
+  // Corners: bit 0 lateral ±, bit 1 elevation ±, bit 2 face (0) or top (1).
+  auto corner = [&](int i) {
+    return Vec3(c + ((i & 1) ? hx : -hx) + ((i & 2) ? hz : -hz) + ((i & 4) ? up : Vec3(Vec3::Zero())));
+  };
+  static const int kFaces[6][4] = {{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1},
+                                   {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}};
+  std::vector<float> pos, nrm;
+  std::vector<uint32_t> tri;
+  const Vec3 centre = c + 0.5 * up;
+  for (const auto& f : kFaces) {
+    const Vec3 a = corner(f[0]), b = corner(f[1]), d = corner(f[2]);
+    Vec3 n = (b - a).cross(d - a).normalized();
+    const Vec3 mid = 0.25 * (a + b + d + corner(f[3]));
+    const bool outward = n.dot(mid - centre) > 0;
+    if (!outward) n = -n;
+    const auto base = uint32_t(pos.size() / 3);
+    for (int k = 0; k < 4; ++k) {
+      const Vec3 v = corner(f[k]);
+      pos.insert(pos.end(), {float(v.x()), float(v.y()), float(v.z())});
+      nrm.insert(nrm.end(), {float(n.x()), float(n.y()), float(n.z())});
+    }
+    // Counter-clockwise seen from outside.
+    if (outward)
+      tri.insert(tri.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+    else
+      tri.insert(tri.end(), {base, base + 2, base + 1, base, base + 3, base + 2});
+  }
+  storage.push_back(std::move(pos));
+  storage.push_back(std::move(nrm));
+  index_storage.push_back(std::move(tri));
+  RenderSurface box;
+  box.positions = storage[storage.size() - 2];
+  box.normals = storage.back();
+  box.triangles = index_storage.back();
+  box.color = Vec3f(0.55f, 0.62f, 0.72f);  // the transducer's grey-blue plastic
+  box.opacity = 0.45f;  // see-through: it stands over the vein, where the needle's tip ends
+  rs.surfaces.push_back(box);
+  // The image plane: the face's width along the array, the imaging depth along the beam.
+  const double w = 0.5 * p.def.width;
+  const Vec3 outline[4] = {c - w * lateral, c + w * lateral, c + w * lateral + p.def.depth * beam,
+                           c - w * lateral + p.def.depth * beam};
+  std::vector<float> pts, pn;
+  for (const Vec3& v : outline) pts.insert(pts.end(), {float(v.x()), float(v.y()), float(v.z())});
+  const Vec3 pnormal = elevation;
+  for (int k = 0; k < 4; ++k) pn.insert(pn.end(), {float(pnormal.x()), float(pnormal.y()), float(pnormal.z())});
+  storage.push_back(std::move(pts));
+  storage.push_back(std::move(pn));
+  index_storage.push_back({0, 1, 2, 0, 2, 3});  // lit from both sides
+  RenderSurface plane;  // the plane itself, faintly: where the image is
+  plane.positions = storage[storage.size() - 2];
+  plane.normals = storage.back();
+  plane.triangles = index_storage.back();
+  plane.color = Vec3f(0.3f, 0.95f, 0.85f);
+  plane.opacity = 0.18f;
+  rs.surfaces.push_back(plane);
+  static const std::array<int, 2> kOutline[4] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}};
+  RenderLines lines;
+  // Vec3f is three packed floats (Eigen's fixed-size vectors have no padding).
+  static_assert(sizeof(Vec3f) == 3 * sizeof(float));
+  lines.points = std::span<const Vec3f>(reinterpret_cast<const Vec3f*>(storage[storage.size() - 2].data()), 4);
+  lines.segments = kOutline;
+  lines.color = Vec3f(0.3f, 0.95f, 0.85f);  // cyan: the beam's plane
+  lines.width = 2.0f;
+  rs.lines.push_back(lines);
+}
+
 }  // namespace
 
 Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                                 const Vec3& tip, const Vec3& force, const FrameOptions& options,
                                 std::vector<std::vector<float>>& storage,
                                 std::vector<std::vector<uint32_t>>& index_storage,
-                                const std::optional<Vec3>& tool_axis) {
+                                const std::optional<Vec3>& tool_axis, const FrameProbe* probe) {
   RenderScene rs;
   rs.camera = scene.camera ? *scene.camera : framing_camera(tissues, tip);
   storage.clear();
   index_storage.clear();
-  storage.reserve(tissues.size() * 2);
-  index_storage.reserve(tissues.size());
+  storage.reserve(tissues.size() * 2 + 4);  // no reallocation: the surfaces' spans point into it
+  index_storage.reserve(tissues.size() + 2);
   for (size_t i = 0; i < tissues.size(); ++i) {
     const TissueSnapshot& t = tissues[i];
     const RoleLook* look = role_look(scene, tissues.size(), i);
@@ -108,6 +185,7 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
     if (options.particles && !t.points.empty()) rs.points.push_back(RenderPoints{t.points});
     if (options.links && !t.links.empty()) rs.lines.push_back(RenderLines{t.points, t.links});
   }
+  if (probe) add_probe(*probe, rs, storage, index_storage);
   RenderTool tool;
   tool.kind = scene.tool.kind;
   tool.tip = tip;
@@ -129,10 +207,11 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
 
 Status render_frame_png(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                         const Vec3& tip, const Vec3& force, const std::filesystem::path& file,
-                        const FrameOptions& options, const std::optional<Vec3>& tool_axis) {
+                        const FrameOptions& options, const std::optional<Vec3>& tool_axis,
+                        const FrameProbe* probe) {
   std::vector<std::vector<float>> storage;
   std::vector<std::vector<uint32_t>> index_storage;
-  auto rs = frame_scene(scene, tissues, tip, force, options, storage, index_storage, tool_axis);
+  auto rs = frame_scene(scene, tissues, tip, force, options, storage, index_storage, tool_axis, probe);
   if (!rs) return rs.error();
   return render_png(*rs, file);
 }

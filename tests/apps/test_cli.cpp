@@ -173,3 +173,21 @@ TEST(Cli, OutOfMemoryIsAClearErrorNotAnAbort) {
     EXPECT_NE(r.out.find("palpate: out of memory"), std::string::npos) << r.out;
   }
 }
+
+TEST(Cli, UltrasoundWritesItsImagesAndNeedsAProbe) {
+  namespace fs = std::filesystem;
+  const fs::path out = fs::temp_directory_path() / "palpate_test_cli_ultrasound";
+  fs::remove_all(out);
+  Ran r = run(std::string("run ") + PALPATE_DATA_DIR + "/scenes/cvc.yaml --ultrasound 2 --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("probe      max force"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("us_000.png  (t = 0.001 s)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("us_001.png  (t = 12.800 s)"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(out / "us_000.png") && fs::exists(out / "us_001.png"));
+  fs::remove_all(out);
+  // A scene without a probe: the error says what is missing.
+  r = run(std::string("run ") + PALPATE_DATA_DIR + "/scenes/cvc-overlap.yaml --ultrasound 2 --out " + out.string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("ultrasound images need a 'probe' section in the scene"), std::string::npos) << r.out;
+  fs::remove_all(out);
+}

@@ -8,6 +8,7 @@
 #include "pose_feeder.h"
 #include "screenshot.h"
 #include "tool_tilt.h"
+#include "ultrasound_feed.h"
 #include <palpate/snapshot_tissue.h>
 
 #include <palpate/device.h>
@@ -15,6 +16,7 @@
 #include <palpate/outcome.h>
 #include <palpate/surface.h>
 #include <palpate/tissue.h>
+#include <palpate/ultrasound.h>
 
 #include <epoxy/gl.h>
 // GLFW after epoxy: epoxy provides the GL declarations, GLFW must not include its own.
@@ -27,8 +29,10 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <deque>
 #include <future>
 #include <memory>
@@ -48,6 +52,32 @@ const Vec3f kArrowColor(1.0f, 0.8f, 0.1f);
 const Vec3f kParticleColor(0.15f, 0.35f, 0.9f);
 const Vec3f kGridColor(0.2f, 0.9f, 0.4f);
 const Vec3f kLinkColor(0.85f, 0.85f, 0.9f);
+const Vec3f kProbeColor(0.55f, 0.62f, 0.72f);   // the transducer's grey-blue plastic
+const Vec3f kPlaneColor(0.3f, 0.95f, 0.85f);    // cyan: the image plane's outline
+
+// The probe as a box: its footprint (width along the array × thickness) standing `height` on its
+// face, flat-shaded (four vertices per side).
+void append_probe_box(TriangleMesh& mesh, const Vec3& face_centre, const Vec3& beam, const Vec3& lateral,
+                      double width, double thickness, double height) {
+  const Vec3 elevation = beam.cross(lateral).normalized();
+  const Vec3 hx = 0.5 * width * lateral, hz = 0.5 * thickness * elevation, up = -height * beam;
+  auto corner = [&](int i) {
+    return Vec3(face_centre + ((i & 1) ? hx : -hx) + ((i & 2) ? hz : -hz) + ((i & 4) ? up : Vec3(Vec3::Zero())));
+  };
+  static const int kFaces[6][4] = {{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1},
+                                   {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}};
+  for (const auto& f : kFaces) {
+    const Vec3 a = corner(f[0]), b = corner(f[1]), d = corner(f[2]);
+    const Vec3 n = (b - a).cross(d - a).normalized();
+    const auto base = static_cast<std::uint32_t>(mesh.positions.size() / 3);
+    for (int k = 0; k < 4; ++k) {
+      const Vec3 v = corner(f[k]);
+      mesh.positions.insert(mesh.positions.end(), {float(v.x()), float(v.y()), float(v.z())});
+      mesh.normals.insert(mesh.normals.end(), {float(n.x()), float(n.y()), float(n.z())});
+    }
+    mesh.triangles.insert(mesh.triangles.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+  }
+}
 // Tissue colours by position in the scene: skin, fat, vessel wall, organ, ...
 const Vec3f kTissueColors[] = {{0.86f, 0.56f, 0.50f}, {0.95f, 0.84f, 0.45f}, {0.72f, 0.18f, 0.20f},
                                {0.55f, 0.22f, 0.16f}, {0.60f, 0.45f, 0.70f}, {0.45f, 0.65f, 0.60f}};
@@ -195,6 +225,15 @@ class Viewer {
   std::optional<double> pick_surface(const Vec3& origin, const Vec3& dir) const;
   bool scripted_probe_step(int width, int height);
   bool take_screenshot(const std::filesystem::path& file, int fb_width, int fb_height);
+  void start_probe();          // the probe's device, feeder, force law and ultrasound feed
+  // Shift + right drag / wheel, shift + ctrl + left drag; true when the probe took the input.
+  bool probe_input(double x, double y, double dx, double dy, int width, int height, double notches,
+                   bool right, bool left, bool shift, bool ctrl, bool ui);
+  void update_ultrasound();    // the newest image into the panel's texture
+  void draw_ultrasound_panel();
+  Vec3 probe_beam() const {    // unit, the probe's beam for its current orientation
+    return (probe_feeder_->orientation() * scene_.probe->axis).normalized();
+  }
   double tool_radius() const { return scene_.tool.radius; }
   // The needle's direction in the device frame (the scene's tool.axis), unit.
   Vec3 scene_axis() const { return scene_.tool.axis.normalized(); }
@@ -213,6 +252,23 @@ class Viewer {
   std::unique_ptr<PoseFeeder> feeder_;
   std::unique_ptr<HapticLoop> loop_;
   std::string loop_error_;
+
+  // The ultrasound probe (scene_.probe), the other hand: its own virtual device (its own safety
+  // filter in the loop), walked by its own feeder; the neck's force law; the live image, rendered
+  // on UltrasoundFeed's thread from the two feeders' poses and shown in a texture.
+  std::unique_ptr<VirtualDevice> probe_device_;
+  std::unique_ptr<PoseFeeder> probe_feeder_;
+  std::unique_ptr<NeckCompression> probe_model_;
+  std::unique_ptr<UltrasoundFeed> us_feed_;
+  UltrasoundImage us_image_;
+  std::vector<std::uint8_t> us_rgba_;
+  unsigned us_texture_ = 0;
+  std::uint64_t us_shown_ = 0;  // images uploaded to the texture
+  bool moving_probe_ = false;   // shift + right drag: the probe follows the cursor over the skin
+  double probe_press_ = 0.0015; // m, the face's depth below the skin under the cursor (wheel)
+  bool show_ultrasound_ = true, show_plane_ = true;
+  int vein_ = -1;                     // the scene's vein tissue: the image shows its wall tented
+  std::vector<Vec3f> vein_rest_;      // its particles at rest
 
   GLFWwindow* window_ = nullptr;
   bool imgui_ready_ = false;
@@ -255,7 +311,10 @@ class Viewer {
 
 Viewer::~Viewer() {
   stop_loop();
+  us_feed_.reset();  // its thread reads the feeders
+  probe_feeder_.reset();
   feeder_.reset();
+  if (us_texture_ && window_) glDeleteTextures(1, &us_texture_);
   if (imgui_ready_) {
     ImGui_ImplOpenGL3_Shutdown();
     ImGui_ImplGlfw_Shutdown();
@@ -303,7 +362,10 @@ Status Viewer::start_loop() {
   s.tool = scene_.tool;
   s.outcome = build_outcome_model(scene_);  // the outcome panel's figures, tracked on the loop's tick
   if (options_.overrun_margin >= 0) s.watchdog.overrun_margin = options_.overrun_margin;
-  auto loop = HapticLoop::create(*device_, std::move(list), s);
+  std::vector<LoopTool> tools;
+  if (probe_device_)
+    tools.push_back({"probe", probe_device_.get(), probe_model_.get(), scene_.probe->device.ramp_in});
+  auto loop = HapticLoop::create(*device_, std::move(list), s, std::move(tools));
   if (!loop) return loop.error();
   Status started = (*loop)->start();
   if (!started) return started;
@@ -406,6 +468,7 @@ void Viewer::frame_input(int width, int height) {
     untilt_key_ = false;
     feeder_->set_orientation_target(Quat::Identity());
   }
+  if (probe_feeder_ && probe_input(x, y, dx, dy, width, height, notches, right, left, shift, ctrl, ui)) return;
   if (!ui) {
     if (left && ctrl) {
       // Tilt the needle about its tip: its handle follows the pointer, 0.5 degree per pixel. The
@@ -483,6 +546,132 @@ bool Viewer::scripted_probe_step(int width, int height) {
   return true;
 }
 
+bool Viewer::probe_input(double x, double y, double dx, double dy, int width, int height, double notches,
+                         bool right, bool left, bool shift, bool ctrl, bool ui) {
+  if (left && shift && ctrl && !ui) {
+    // Tilt the probe about its face: its top follows the pointer, as the needle's handle does.
+    const Quat target = probe_feeder_->orientation_target();
+    const Vec3 top = -(target * scene_.probe->axis).normalized();
+    probe_feeder_->set_orientation_target(
+        tilt_by_drag(target, top, dx, dy, camera_.right(), camera_.up(), kTiltRadiansPerPixel));
+    return true;
+  }
+  if (right && shift && !pressing_ && !moving_probe_ && !ui) moving_probe_ = true;
+  if (!moving_probe_) return false;
+  if (!right) {
+    moving_probe_ = false;  // let go: the probe stays where it is, resting on the skin
+    return true;
+  }
+  // The face's centre on the skin under the cursor, `probe_press_` in along the beam; wheel:
+  // 0.5 mm per notch, forward = firmer.
+  probe_press_ = std::clamp(probe_press_ + notches * 0.0005, 0.0, 0.02);
+  const Vec3 eye = camera_.eye();
+  const Vec3 dir = camera_.ray_direction(x, y, width, height);
+  if (const auto hit = pick_surface(eye, dir)) probe_feeder_->set_target(eye + dir * *hit + probe_press_ * probe_beam());
+  return true;
+}
+
+void Viewer::start_probe() {
+  const ProbeDef& p = *scene_.probe;
+  DeviceLimits limits;
+  limits.max_force = p.device.max_force;
+  limits.max_force_rate = p.device.max_force_rate;
+  limits.stiffness = p.device.stiffness;
+  limits.damping = p.device.damping;
+  probe_device_ = std::make_unique<VirtualDevice>(limits);
+  // It starts where its scripted device would (its first waypoint), or on the skin at the origin.
+  Vec3 start = Vec3::Zero();
+  Quat facing = Quat::Identity();
+  if (!p.device.waypoints.empty()) {
+    const Waypoint& w = p.device.waypoints.front();
+    start = w.position;
+    if (w.direction.allFinite() && w.direction.norm() > 0) facing = orientation_towards(p.axis, w.direction);
+  }
+  probe_feeder_ = std::make_unique<PoseFeeder>(*probe_device_, start, options_.tool_speed);
+  probe_feeder_->set_orientation_target(facing);
+  probe_press_ = std::max(0.0, -start.y());
+  probe_model_ = std::make_unique<NeckCompression>(*scene_.anatomy, p);
+  for (size_t i = 0; i < scene_.tissues.size() && i < tissues_.size() && vein_ < 0; ++i)
+    if (scene_.tissues[i].role == "vein") vein_ = int(i);
+  if (vein_ >= 0) vein_rest_ = tissues_[size_t(vein_)]->current().points;  // built, not yet stepped
+  const bool needle = scene_.tool.kind == "needle";
+  const Vec3 axis = scene_axis();
+  const double radius = scene_.tool.radius, length = scene_.tool.length;
+  PoseFeeder* hand = feeder_.get();
+  PoseFeeder* probe = probe_feeder_.get();
+  us_feed_ = std::make_unique<UltrasoundFeed>(
+      *scene_.anatomy, p,
+      [=](ProbePose& pp, NeedlePose& np) {
+        pp.position = probe->position();
+        pp.orientation = probe->orientation();
+        np.present = needle;
+        np.tip = hand->position();
+        np.axis = needle_axis(axis, hand->orientation());
+        np.radius = radius;
+        np.length = length;
+      },
+      25.0);
+}
+
+void Viewer::update_ultrasound() {
+  if (!us_feed_) return;
+  // The vein's wall as update_views() just took it from the haptic thread.
+  if (vein_ >= 0 && size_t(vein_) < tissues_.size()) {
+    const std::vector<Vec3f>& now = tissues_[size_t(vein_)]->current().points;
+    if (now.size() == vein_rest_.size()) us_feed_->set_vein_wall(vein_rest_, now);
+  }
+  if (!us_feed_->take(us_image_) || us_image_.width <= 0) return;
+  const size_t n = size_t(us_image_.width) * size_t(us_image_.height);
+  us_rgba_.resize(n * 4);
+  for (size_t i = 0; i < n; ++i) {
+    const std::uint8_t g = us_image_.grey[i];
+    us_rgba_[i * 4] = us_rgba_[i * 4 + 1] = us_rgba_[i * 4 + 2] = g;
+    us_rgba_[i * 4 + 3] = 255;
+  }
+  if (!us_texture_) {
+    glGenTextures(1, &us_texture_);
+    glBindTexture(GL_TEXTURE_2D, us_texture_);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  }
+  glBindTexture(GL_TEXTURE_2D, us_texture_);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, us_image_.width, us_image_.height, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+               us_rgba_.data());
+  glBindTexture(GL_TEXTURE_2D, 0);
+  ++us_shown_;
+}
+
+void Viewer::draw_ultrasound_panel() {
+  if (!probe_feeder_) return;
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  const float side = std::clamp(0.4f * display.y, 160.0f, 512.0f);
+  ImGui::SetNextWindowPos(ImVec2(display.x - side - 24, 8), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(side + 16, 0), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Ultrasound");
+  ImGui::Checkbox("image", &show_ultrasound_);
+  ImGui::SameLine();
+  ImGui::Checkbox("plane in 3-D", &show_plane_);
+  if (show_ultrasound_ && us_texture_) {
+    const float w = ImGui::GetContentRegionAvail().x;
+    const float h = us_image_.width > 0 ? w * float(us_image_.height * us_image_.pixel_depth) /
+                                              float(us_image_.width * us_image_.pixel_width)
+                                        : w;
+    ImGui::Image(reinterpret_cast<ImTextureID>(static_cast<std::intptr_t>(us_texture_)), ImVec2(w, h));
+  }
+  const Vec3 p = probe_feeder_->position();
+  ImGui::Text("probe %.1f, %.1f, %.1f mm  |F| %.2f N", 1e3 * p.x(), 1e3 * p.y(), 1e3 * p.z(),
+              probe_device_->force().norm());
+  if (us_feed_)
+    ImGui::Text("%s  %.1f ms per image", us_image_.in_contact ? "on the skin" : "not touching",
+                1e3 * us_feed_->last_render_seconds());
+  ImGui::TextDisabled("shift + right drag: move the probe, wheel: press");
+  ImGui::TextDisabled("shift + ctrl + left drag: tilt it");
+  ImGui::End();
+}
+
 void Viewer::update_views() {
   for (size_t i = 0; i < tissues_.size(); ++i) {
     const TissueSnapshot& s = tissues_[i]->latest();
@@ -517,6 +706,23 @@ void Viewer::draw_scene(int fb_width, int fb_height) {
       append_sphere(mesh, tip, scene_.tool.radius);
     }
     gl_->triangles(mesh, kToolColor);
+  }
+  if (probe_feeder_) {
+    const ProbeDef& p = *scene_.probe;
+    const Quat q = probe_feeder_->orientation();
+    const Vec3 c = probe_feeder_->position(), beam = probe_beam(), lateral = (q * p.lateral).normalized();
+    mesh.clear();
+    append_probe_box(mesh, c, beam, lateral, p.width, p.thickness, 0.03);
+    gl_->triangles(mesh, kProbeColor);
+    if (show_plane_) {
+      const double w = 0.5 * p.width;
+      const Vec3 corners[4] = {c - w * lateral, c + w * lateral, c + w * lateral + p.depth * beam,
+                               c - w * lateral + p.depth * beam};
+      Vec3f pts[4];
+      for (int k = 0; k < 4; ++k) pts[k] = corners[k].cast<float>();
+      static const std::array<int, 2> kOutline[4] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}};
+      gl_->lines(pts, kOutline, kPlaneColor);
+    }
   }
   if (show_arrow_ && force_.norm() > 1e-4) {
     mesh.clear();
@@ -701,6 +907,7 @@ int Viewer::run() {
   limits.damping = scene_.device.damping;
   device_ = std::make_unique<VirtualDevice>(limits);
   feeder_ = std::make_unique<PoseFeeder>(*device_, start_position(), options_.tool_speed);
+  if (scene_.probe && scene_.anatomy) start_probe();
 
   std::string error;
   if (!init_window(error)) {
@@ -728,6 +935,7 @@ int Viewer::run() {
     glfwGetFramebufferSize(window_, &fb_width, &fb_height);
 
     update_views();
+    update_ultrasound();
     if (frames > 0 && !scripted_probe_step(width, height)) {
       code = 1;
       break;
@@ -760,7 +968,10 @@ int Viewer::run() {
     if (last && !options_.screenshot.empty() && !shot_taken && !take_screenshot(options_.screenshot, fb_width, fb_height))
       code = 1;
     if (imgui_ready_) {
-      if (options_.panels) draw_panels();
+      if (options_.panels) {
+        draw_panels();
+        draw_ultrasound_panel();
+      }
       ImGui::Render();
       ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
     }
@@ -792,6 +1003,13 @@ int Viewer::run() {
     fmt::print("outcome: {}\n", outcome_name(m.outcome));
     fmt::print("skin_punctures: {}\npasses: {}\ndeepest_depth_m: {:.6f}\n", m.skin_punctures, m.passes,
                m.deepest_depth);
+    for (const LoopToolStats& t : st.tools) fmt::print("{}_max_force_N: {:.6f}\n", t.name, t.max_force);
+  }
+  if (probe_feeder_) {
+    const Vec3 p = probe_feeder_->position();
+    fmt::print("probe: {:.6f} {:.6f} {:.6f}\n", p.x(), p.y(), p.z());
+    fmt::print("probe_force_N: {:.6f}\n", probe_device_->force().norm());
+    fmt::print("ultrasound_images: {} rendered, {} shown\n", us_feed_ ? us_feed_->rendered() : 0, us_shown_);
   }
   std::fflush(stdout);
   stop_loop();
