@@ -40,6 +40,7 @@ void add_spring_forces(const SpringNetwork& net, const RowMat3d& x, const RowMat
     f(i, 0) += g * dx; f(i, 1) += g * dy; f(i, 2) += g * dz;
     f(j, 0) -= g * dx; f(j, 1) -= g * dy; f(j, 2) -= g * dz;
   }
+  if (!net.tets.empty() && net.volume_modulus > 0) spring::add_volume_forces(net, x.data(), 3, f.data(), 3);
 }
 
 // The all-pairs spring forces, rows i = 0 … n − 2 against j = i + 1 … n − 1 (the springs in
@@ -506,6 +507,17 @@ Vec3 add_tool_forces(const SpringModel& model, SpringState& s, const ToolState& 
     f.row(i) += fi.transpose();
     on_tool -= fi;
   }
+  if (o.contact == SpringContact::surface) {
+    // The contact force the last step ended with acts through this one (surface_contact corrects it
+    // after the solve).
+    s.carried_on_tool.setZero();
+    for (int k = 0; k < s.contact_vertex_count; ++k) {
+      const int i = s.contact_vertex[static_cast<size_t>(k)];
+      f.row(i) += s.contact_load[static_cast<size_t>(k)].transpose();
+      s.carried_on_tool -= s.contact_load[static_cast<size_t>(k)];
+    }
+    return on_tool + s.carried_on_tool;
+  }
   if (r <= 0 || o.contact_stiffness <= 0) return on_tool;
   const double r2 = r * r;
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -585,6 +597,201 @@ bool finite_and_slow(const SpringModel& model, const SpringState& s) noexcept {
     if (!(v2 <= vmax2) || !std::isfinite(s.x(i, 0) + s.x(i, 1) + s.x(i, 2))) return false;
   }
   return true;
+}
+
+// The point of triangle (a, b, c) closest to p, and its barycentric weights (Ericson 2005, "Real-Time
+// Collision Detection", §5.1.5).
+Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, Vec3& w) noexcept {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) { w = Vec3(1, 0, 0); return a; }
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) { w = Vec3(0, 1, 0); return b; }
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const double t = d1 / (d1 - d3);
+    w = Vec3(1 - t, t, 0);
+    return a + t * ab;
+  }
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) { w = Vec3(0, 0, 1); return c; }
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const double t = d2 / (d2 - d6);
+    w = Vec3(1 - t, 0, t);
+    return a + t * ac;
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    w = Vec3(0, 1 - t, t);
+    return b + t * (c - b);
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom, u = vc * denom;
+  w = Vec3(1 - v - u, v, u);
+  return a + v * ab + u * ac;
+}
+
+// Surface contact, after the solve (docs/models/mass-spring.md, "Contact"). The tool's sphere
+// (centre c, radius r) against the surface triangles at the new positions: each triangle t whose
+// closest point p_t lies within r, on its outer side, is pressed with weight φ_t = r − |c − p_t|
+// along n_t = (c − p_t)/|c − p_t| (weights ω_t ∝ φ_t with |Σ ω_t n_t| = 1); a centre inside a closed surface presses only the nearest
+// triangle, by r + its distance, along its outward normal, so the tool is pushed out. The depth
+// Φ = max φ_t. The force F on the tool is a penalty k_c Φ, made stable whatever the vertex masses
+// by solving for it implicitly each tick against the contact vertices' compliance
+// c = Σ_i |g_i|² / (m_i + hγ), g_i = Σ_t (φ_t / Σφ) w_t,i n_t (an upper bound of the true one, since
+// A ≥ M + hγ: the update under-relaxes, never overshoots):
+//   F⁺ = max(0, k_c (Φ + h² c F) / (1 + k_c h² c)),
+// the step having already carried F. The difference F⁺ − F moves the contact vertices now
+// (Δv_i = −h (F⁺ − F) g_i / (m_i + hγ)) and acts as −F⁺ g_i in the next step. At rest F⁺ = F, so
+// F = k_c Φ: a penalty of stiffness k_c in series with the tissue, independent of the masses.
+void surface_contact(const SpringModel& model, SpringState& s, const ToolState& tool) noexcept {
+  const SpringNetwork& net = model.network;
+  const double h = model.options.dt, kc = model.options.contact_stiffness;
+  const double r = std::max(tool.radius, 0.0);
+  const double f_prev = s.contact_vertex_count > 0 ? s.contact_force : 0.0;
+  s.tool_force -= s.carried_on_tool;  // replaced below by the corrected force
+  s.carried_on_tool.setZero();
+  s.contact_vertex_count = 0;
+  s.contact_force = 0;
+  s.contact_depth = 0;
+  s.contacts = 0;
+  if (r <= 0 || kc <= 0 || net.triangles.empty()) return;
+  const Vec3 c = tool.tip;
+  // Triangles within r of the centre (the deepest kept when there are more than fit), and the
+  // nearest triangle overall when the centre may be inside.
+  struct Hit {
+    int tri;
+    double dist;
+    Vec3 w, p;
+  };
+  std::array<Hit, SpringState::kMaxContactTriangles> hits;
+  int nhits = 0;
+  int nearest = -1;
+  double nearest_d2 = std::numeric_limits<double>::infinity(), nearest_cos = 0;
+  Vec3 nearest_w = Vec3::Zero(), nearest_p = Vec3::Zero();
+  for (size_t t = 0; t < net.triangles.size(); ++t) {
+    const auto& T = net.triangles[t];
+    const Vec3 a = s.x.row(T[0]).transpose(), b = s.x.row(T[1]).transpose(), q = s.x.row(T[2]).transpose();
+    // Bounding-box distance first: most triangles are far.
+    const Vec3 lo = a.cwiseMin(b).cwiseMin(q), hi = a.cwiseMax(b).cwiseMax(q);
+    const double box_d2 = (c.cwiseMax(lo).cwiseMin(hi) - c).squaredNorm();
+    if (box_d2 >= r * r && (!model.closed_surface || box_d2 > nearest_d2)) continue;
+    Vec3 w;
+    const Vec3 p = closest_on_triangle(c, a, b, q, w);
+    const double d2 = (c - p).squaredNorm();
+    if (model.closed_surface) {
+      // Nearest triangle; at a shared edge or corner (equal distances), the one whose plane the
+      // centre is most clearly in front of or behind decides the side (its |cos| is largest).
+      const Vec3 nf = (b - a).cross(q - a);
+      const double len = nf.norm() * std::sqrt(d2);
+      const double cosine = len > 0 ? (c - p).dot(nf) / len : 0.0;
+      const bool tie = std::abs(d2 - nearest_d2) <= 1e-12 * std::max(d2, 1e-30);
+      if (d2 < nearest_d2 && !tie) {
+        nearest = static_cast<int>(t); nearest_d2 = d2; nearest_cos = cosine; nearest_w = w; nearest_p = p;
+      } else if (tie && std::abs(cosine) > std::abs(nearest_cos)) {
+        nearest = static_cast<int>(t); nearest_cos = cosine; nearest_w = w; nearest_p = p;
+      }
+    }
+    if (d2 >= r * r) continue;
+    const Hit hit{static_cast<int>(t), std::sqrt(d2), w, p};
+    if (nhits < SpringState::kMaxContactTriangles) {
+      hits[static_cast<size_t>(nhits++)] = hit;
+    } else {
+      int far = 0;
+      for (int k = 1; k < nhits; ++k) if (hits[static_cast<size_t>(k)].dist > hits[static_cast<size_t>(far)].dist) far = k;
+      if (hit.dist < hits[static_cast<size_t>(far)].dist) hits[static_cast<size_t>(far)] = hit;
+    }
+  }
+  const bool inside = model.closed_surface && nearest >= 0 && nearest_cos < 0;
+  // Contact vertices and their direction sums g_i (up to kMaxContactVertices).
+  std::array<Vec3, SpringState::kMaxContactVertices> g;
+  auto add = [&](int vertex, const Vec3& gi) {
+    for (int k = 0; k < s.contact_vertex_count; ++k)
+      if (s.contact_vertex[static_cast<size_t>(k)] == vertex) { g[static_cast<size_t>(k)] += gi; return; }
+    if (s.contact_vertex_count == SpringState::kMaxContactVertices) return;
+    s.contact_vertex[static_cast<size_t>(s.contact_vertex_count)] = vertex;
+    g[static_cast<size_t>(s.contact_vertex_count++)] = gi;
+  };
+  double depth = 0;
+  if (inside) {
+    const auto& T = net.triangles[static_cast<size_t>(nearest)];
+    const Vec3 a = s.x.row(T[0]).transpose(), b = s.x.row(T[1]).transpose(), q = s.x.row(T[2]).transpose();
+    const Vec3 n = (b - a).cross(q - a).normalized();  // outward
+    depth = r + std::sqrt(nearest_d2);
+    for (int k = 0; k < 3; ++k) add(T[static_cast<size_t>(k)], nearest_w[k] * n);
+    s.contacts = 1;
+  } else {
+    double sum = 0;
+    int used = 0;
+    for (int k = 0; k < nhits; ++k) {
+      const Hit& hit = hits[static_cast<size_t>(k)];
+      if (!(hit.dist > 1e-12 * r)) continue;  // the centre on the surface: no direction (rare; next tick)
+      if (model.closed_surface) {  // only triangles the tool is in front of (not the back of a thin part)
+        const auto& T = net.triangles[static_cast<size_t>(hit.tri)];
+        const Vec3 nf = (s.x.row(T[1]) - s.x.row(T[0])).transpose().cross((s.x.row(T[2]) - s.x.row(T[0])).transpose());
+        if ((c - hit.p).dot(nf) < 0) continue;
+      }
+      sum += r - hit.dist;
+      depth = std::max(depth, r - hit.dist);
+      hits[static_cast<size_t>(used++)] = hit;
+    }
+    // Weights φ_t scaled so that Σ ω_t n_t is a unit vector: the tool feels exactly F along it.
+    Vec3 resultant = Vec3::Zero();
+    for (int k = 0; k < used; ++k)
+      resultant += (r - hits[static_cast<size_t>(k)].dist) / hits[static_cast<size_t>(k)].dist *
+                   (c - hits[static_cast<size_t>(k)].p);
+    sum = resultant.norm();
+    if (sum > 0)
+      for (int k = 0; k < used; ++k) {
+        const Hit& hit = hits[static_cast<size_t>(k)];
+        const Vec3 n = (c - hit.p) / hit.dist;
+        const double weight = (r - hit.dist) / sum;
+        const auto& T = net.triangles[static_cast<size_t>(hit.tri)];
+        for (int q = 0; q < 3; ++q)
+          if (hit.w[q] > 0) add(T[static_cast<size_t>(q)], weight * hit.w[q] * n);
+      }
+    s.contacts = used;
+  }
+  if (!(depth > 0) || s.contact_vertex_count == 0) {
+    s.contact_vertex_count = 0;
+    s.contacts = 0;
+    return;
+  }
+  double compliance = 0;
+  for (int k = 0; k < s.contact_vertex_count; ++k)
+    compliance += g[static_cast<size_t>(k)].squaredNorm() *
+                  model.contact_compliance[static_cast<size_t>(s.contact_vertex[static_cast<size_t>(k)])];
+  // The normal damper (contact_damping) on the approach speed of the tool to the contact vertices
+  // along the force's direction: explicit, so small (it is zero at rest).
+  Vec3 surface_v = Vec3::Zero(), direction = Vec3::Zero();
+  for (int k = 0; k < s.contact_vertex_count; ++k) {
+    const int i = s.contact_vertex[static_cast<size_t>(k)];
+    direction += g[static_cast<size_t>(k)];
+    surface_v += g[static_cast<size_t>(k)].norm() * s.v.row(i).transpose();
+  }
+  const double gsum = direction.norm();
+  const double approach = gsum > 0 ? (surface_v / gsum - tool.velocity).dot(direction / gsum) : 0.0;
+  const double kh2c = kc * h * h * compliance;
+  const double f_new = std::max(
+      0.0, (kc * (depth + h * h * compliance * f_prev) + model.options.contact_damping * approach) / (1 + kh2c));
+  const double df = f_new - f_prev;
+  Vec3 total = Vec3::Zero();
+  for (int k = 0; k < s.contact_vertex_count; ++k) {
+    const int i = s.contact_vertex[static_cast<size_t>(k)];
+    const Vec3 gi = g[static_cast<size_t>(k)];
+    const Vec3 dv = -h * df * model.contact_compliance[static_cast<size_t>(i)] * gi;
+    s.v.row(i) += dv.transpose();
+    s.x.row(i) += h * dv.transpose();
+    s.contact_load[static_cast<size_t>(k)] = -f_new * gi;
+    total += f_new * gi;
+  }
+  s.contact_force = f_new;
+  s.contact_depth = depth;
+  s.tool_force += total;  // the tool feels F⁺, the corrected force, now
 }
 
 // All forces at the start of the step into s.force (external ones also left in s.work). With
@@ -776,6 +983,24 @@ void step_exact(const SpringModel& model, SpringState& s, const ToolState* tool)
           }
         }
     }
+    // The volume term: its Gauss-Newton Jacobian (κ / V0) ∇V ∇Vᵀ (positive semi-definite; the
+    // residual is exact, so Newton still converges to the backward-Euler step).
+    for (size_t t = 0; t < net.tets.size() && net.volume_modulus > 0; ++t) {
+      const auto& q = net.tets[t];
+      const auto g = spring::tet_volume_gradients(xn.row(q[0]).transpose(), xn.row(q[1]).transpose(),
+                                                  xn.row(q[2]).transpose(), xn.row(q[3]).transpose());
+      const double w = h * h * net.volume_modulus / net.rest_volume[t];
+      for (int a = 0; a < 4; ++a) {
+        if (model.anchored[static_cast<size_t>(q[static_cast<size_t>(a)])]) continue;
+        for (int b = 0; b < 4; ++b) {
+          if (model.anchored[static_cast<size_t>(q[static_cast<size_t>(b)])]) continue;
+          const Eigen::Matrix3d B = w * g[static_cast<size_t>(a)] * g[static_cast<size_t>(b)].transpose();
+          for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c)
+              trip.emplace_back(3 * q[static_cast<size_t>(a)] + r, 3 * q[static_cast<size_t>(b)] + c, B(r, c));
+        }
+      }
+    }
     J.setFromTriplets(trip.begin(), trip.end());
     if (it == 0) solver.analyzePattern(J);
     solver.factorize(J);
@@ -807,6 +1032,15 @@ bool step(const SpringModel& model, SpringState& s, const ToolState* tool) noexc
   } else {
     step_predictor(model, s, tool);
   }
+  if (model.options.contact == SpringContact::surface) {
+    if (tool) {
+      surface_contact(model, s, *tool);
+    } else {
+      s.contact_vertex_count = 0;
+      s.contact_force = 0;
+      s.carried_on_tool.setZero();
+    }
+  }
   s.time += model.options.dt;
   if (finite_and_slow(model, s)) return true;
   const std::uint64_t resets = s.resets + 1;
@@ -827,6 +1061,10 @@ double elastic_energy(const SpringModel& model, const SpringState& s) noexcept {
   for (size_t k = 0; k < net.springs.size(); ++k) {
     const double l = (s.x.row(net.springs[k][0]) - s.x.row(net.springs[k][1])).norm();
     e += 0.5 * net.stiffness[k] * (l - net.rest_length[k]) * (l - net.rest_length[k]);
+  }
+  if (!net.tets.empty() && net.volume_modulus > 0) {
+    RowMat3d scratch = RowMat3d::Zero(s.x.rows(), 3);  // not on the tick
+    e += spring::add_volume_forces(net, s.x.data(), 3, scratch.data(), 3);
   }
   return e;
 }
@@ -884,13 +1122,14 @@ namespace {
 // x[stride i …], its velocity at v[stride i …], its sums at f and r the same way. The reference
 // pass on the (n x 3) arrays (stride 3) and the vectorised passes' last s mod 4 springs on the
 // padded layout (stride 8: v = x + 4, r = f + 4).
-void spring_loop(const SpringNetwork& net, double h, size_t e, size_t stride, const double* xd, const double* vd,
-                 double* fd, double* rd) noexcept {
+// KP: each spring's predictor weight (SpringModel::predictor_stiffness) for the −h K v term.
+void spring_loop(const SpringNetwork& net, const double* KP, double h, size_t e, size_t stride, const double* xd,
+                 const double* vd, double* fd, double* rd) noexcept {
   for (; e < net.springs.size(); ++e) {
     const size_t i = stride * static_cast<size_t>(net.springs[e][0]), j = stride * static_cast<size_t>(net.springs[e][1]);
     const double dx = xd[j] - xd[i], dy = xd[j + 1] - xd[i + 1], dz = xd[j + 2] - xd[i + 2];
     const double wx = vd[j] - vd[i], wy = vd[j + 1] - vd[i + 1], wz = vd[j + 2] - vd[i + 2];
-    const double kh = h * net.stiffness[e];
+    const double kh = h * KP[e];
     rd[i] += kh * wx; rd[i + 1] += kh * wy; rd[i + 2] += kh * wz;
     rd[j] -= kh * wx; rd[j + 1] -= kh * wy; rd[j + 2] -= kh * wz;
     const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
@@ -902,8 +1141,9 @@ void spring_loop(const SpringNetwork& net, double h, size_t e, size_t stride, co
     fd[j] -= g * dx; fd[j + 1] -= g * dy; fd[j + 2] -= g * dz;
   }
 }
-void spring_pass_tail(const SpringNetwork& net, double h, size_t e, const double* xv, double* fr) noexcept {
-  spring_loop(net, h, e, 8, xv, xv + 4, fr, fr + 4);
+void spring_pass_tail(const SpringNetwork& net, const double* KP, double h, size_t e, const double* xv,
+                      double* fr) noexcept {
+  spring_loop(net, KP, h, e, 8, xv, xv + 4, fr, fr + 4);
 }
 
 // (Σ a0, Σ a1, Σ a2, Σ a3): the four horizontal sums in one register.
@@ -919,8 +1159,8 @@ __attribute__((target("avx2,fma"), always_inline)) inline __m256d hsum4(__m256d 
 // and no lane is masked); fr the same for the springs' sums, f then r. The sums go to fr one vertex
 // at a time in spring order, so springs sharing a vertex in a group of four are summed like the
 // scalar loop's.
-__attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& net, double h, const double* xv,
-                                                           double* fr) noexcept {
+__attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& net, const double* KP, double h,
+                                                           const double* xv, double* fr) noexcept {
   const size_t s = net.springs.size();
   const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
   const __m256d hv = _mm256_set1_pd(h), zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
@@ -946,7 +1186,7 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
     __m256d g = _mm256_add_pd(_mm256_mul_pd(k, _mm256_sub_pd(l, _mm256_loadu_pd(L + e))),
                               _mm256_mul_pd(_mm256_loadu_pd(C + e), dvu));
     g = _mm256_and_pd(_mm256_mul_pd(g, inv_l), ok);
-    const __m256d kh = _mm256_mul_pd(hv, k);
+    const __m256d kh = _mm256_mul_pd(hv, _mm256_loadu_pd(KP + e));
     const __m256d gq[4] = {_mm256_permute4x64_pd(g, 0x00), _mm256_permute4x64_pd(g, 0x55),
                            _mm256_permute4x64_pd(g, 0xAA), _mm256_permute4x64_pd(g, 0xFF)};
     const __m256d kq[4] = {_mm256_permute4x64_pd(kh, 0x00), _mm256_permute4x64_pd(kh, 0x55),
@@ -960,7 +1200,7 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
       _mm256_store_pd(fr + b[q], _mm256_sub_pd(_mm256_load_pd(fr + b[q]), fd));
     }
   }
-  spring_pass_tail(net, h, e, xv, fr);
+  spring_pass_tail(net, KP, h, e, xv, fr);
 }
 
 #pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see all_pairs_avx512
@@ -973,8 +1213,8 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
 // Uniform: every spring has stiffness k0 and damping c0, so the pass reads no per-spring K and C
 // (16 of each spring's 32 bytes; the same values, so the same results bit for bit).
 template <bool Uniform>
-__attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(const SpringNetwork& net, double h,
-                                                                              const double* xv, double* fr,
+__attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(const SpringNetwork& net, const double* KP,
+                                                                              double h, const double* xv, double* fr,
                                                                               double k0 = 0, double c0 = 0) noexcept {
   const size_t s = net.springs.size();
   const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
@@ -1012,14 +1252,15 @@ __attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(con
     __m256d g = _mm256_fnmadd_pd(_mm256_mul_pd(k, _mm256_loadu_pd(L + e)), r, k);
     g = _mm256_fmadd_pd(_mm256_mul_pd(damp, dwv), _mm256_mul_pd(r, r), g);
     g = _mm256_and_pd(g, ok);
-    const __m512d gk = _mm512_insertf64x4(_mm512_castpd256_pd512(g), _mm256_mul_pd(hv, k), 1);
+    const __m256d kp = Uniform ? k : _mm256_loadu_pd(KP + e);  // the predictor's weight (= k without a volume term)
+    const __m512d gk = _mm512_insertf64x4(_mm512_castpd256_pd512(g), _mm256_mul_pd(hv, kp), 1);
     for (int q = 0; q < 4; ++q) {
       const __m512d c = _mm512_mul_pd(_mm512_permutexvar_pd(pick[q], gk), dw[q]);  // (g d, kh w)
       _mm512_store_pd(fr + a[q], _mm512_add_pd(_mm512_load_pd(fr + a[q]), c));
       _mm512_store_pd(fr + b[q], _mm512_sub_pd(_mm512_load_pd(fr + b[q]), c));
     }
   }
-  spring_pass_tail(net, h, e, xv, fr);
+  spring_pass_tail(net, KP, h, e, xv, fr);
 }
 
 #pragma GCC diagnostic pop
@@ -1040,6 +1281,41 @@ __attribute__((target("avx2"))) void pack_padded(size_t n, const double* xd, con
 
 }  // namespace
 
+double add_volume_forces(const SpringNetwork& net, const double* x, size_t stride, double* f,
+                         size_t fstride) noexcept {
+  const double kappa = net.volume_modulus;
+  double energy = 0;
+  const size_t T = net.tets.size();
+  for (size_t t = 0; t < T; ++t) {
+    const auto& q = net.tets[t];
+    const double* p0 = x + stride * static_cast<size_t>(q[0]);
+    const double* p1 = x + stride * static_cast<size_t>(q[1]);
+    const double* p2 = x + stride * static_cast<size_t>(q[2]);
+    const double* p3 = x + stride * static_cast<size_t>(q[3]);
+    const double ax = p1[0] - p0[0], ay = p1[1] - p0[1], az = p1[2] - p0[2];
+    const double bx = p2[0] - p0[0], by = p2[1] - p0[1], bz = p2[2] - p0[2];
+    const double cx = p3[0] - p0[0], cy = p3[1] - p0[1], cz = p3[2] - p0[2];
+    // 6 ∇V at corners 1, 2, 3: b × c, c × a, a × b.
+    const double g1x = by * cz - bz * cy, g1y = bz * cx - bx * cz, g1z = bx * cy - by * cx;
+    const double g2x = cy * az - cz * ay, g2y = cz * ax - cx * az, g2z = cx * ay - cy * ax;
+    const double g3x = ay * bz - az * by, g3y = az * bx - ax * bz, g3z = ax * by - ay * bx;
+    const double v6 = ax * g1x + ay * g1y + az * g1z;  // 6 V
+    const double v0 = net.rest_volume[t];
+    const double dv = v6 / 6 - v0;
+    energy += 0.5 * kappa * dv * dv / v0;
+    const double s = -kappa * dv / (6 * v0);  // −p / 6, the 1/6 of ∇V folded in
+    double* f0 = f + fstride * static_cast<size_t>(q[0]);
+    double* f1 = f + fstride * static_cast<size_t>(q[1]);
+    double* f2 = f + fstride * static_cast<size_t>(q[2]);
+    double* f3 = f + fstride * static_cast<size_t>(q[3]);
+    f1[0] += s * g1x; f1[1] += s * g1y; f1[2] += s * g1z;
+    f2[0] += s * g2x; f2[1] += s * g2y; f2[2] += s * g2z;
+    f3[0] += s * g3x; f3[1] += s * g3y; f3[2] += s * g3z;
+    f0[0] -= s * (g1x + g2x + g3x); f0[1] -= s * (g1y + g2y + g3y); f0[2] -= s * (g1z + g2z + g3z);
+  }
+  return energy;
+}
+
 bool spring_pass_padded_available(const SpringModel& model) noexcept {
   return has_avx2_fma() && !model.network.springs.empty();
 }
@@ -1051,13 +1327,15 @@ double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const Ro
   double* p = align64(scratch);  // at most 7 doubles in
   double *xv = p, *fr = p + 8 * n;
   pack_padded(n, x.data(), v.data(), xv, fr);
-  const bool uniform = model.uniform_stiffness > 0 && model.uniform_damping;
+  const bool uniform = model.uniform_stiffness > 0 && model.uniform_damping && !model.volume_term;
+  const double* KP = model.predictor_stiffness.data();
   if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512()) {
-    if (uniform) spring_pass_avx512<true>(net, model.options.dt, xv, fr, model.uniform_stiffness, net.damping[0]);
-    else spring_pass_avx512<false>(net, model.options.dt, xv, fr);
+    if (uniform) spring_pass_avx512<true>(net, KP, model.options.dt, xv, fr, model.uniform_stiffness, net.damping[0]);
+    else spring_pass_avx512<false>(net, KP, model.options.dt, xv, fr);
   } else {
-    spring_pass_avx2(net, model.options.dt, xv, fr);
+    spring_pass_avx2(net, KP, model.options.dt, xv, fr);
   }
+  if (model.volume_term) add_volume_forces(net, xv, 8, fr, 8);
   return p;
 }
 
@@ -1066,7 +1344,9 @@ void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat
                                           SpringKernel kernel) noexcept {
   const size_t n = model.network.size();
   if (!vectorised || kernel == SpringKernel::scalar || !spring_pass_padded_available(model) || scratch == nullptr) {
-    spring_loop(model.network, model.options.dt, 0, 3, x.data(), v.data(), f.data(), r.data());
+    spring_loop(model.network, model.predictor_stiffness.data(), model.options.dt, 0, 3, x.data(), v.data(), f.data(),
+                r.data());
+    if (model.volume_term) add_volume_forces(model.network, x.data(), 3, f.data(), 3);
     return;
   }
   const double* fr = spring_pass_padded(model, x, v, scratch, kernel) + 8 * n;

@@ -158,6 +158,9 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
   o.gravity_acceleration = m.gravity_acceleration;
   o.angular_momentum_correction = m.angular_momentum_correction;
   o.contact_stiffness = m.contact_stiffness;
+  if (m.contact == "surface") o.contact = SpringContact::surface;
+  else if (m.contact == "vertices") o.contact = SpringContact::vertices;
+  else return Error{where + ": material.contact '" + m.contact + "' is not one of surface|vertices"};
   o.grasp_radius = m.grasp_radius;
   o.grasp_stiffness = m.grasp_stiffness;
   o.single_precision = m.single_precision;
