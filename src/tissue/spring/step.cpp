@@ -653,6 +653,11 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
   const double h = model.options.dt, kc = model.options.contact_stiffness;
   const double r = std::max(tool.radius, 0.0);
   const double f_prev = s.contact_vertex_count > 0 ? s.contact_force : 0.0;
+  // Whether the centre may be inside a closed surface deeper than r (then no triangle is within r
+  // and the nearest one decides): only after a contact (the tool went in through the surface, or
+  // faster than r per step) or on the first step (a tool that starts inside). Otherwise the pass
+  // over the triangles is a bounding-box test each.
+  const bool search_inside = model.closed_surface && (s.contact_vertex_count > 0 || s.time == 0);
   s.tool_force -= s.carried_on_tool;  // replaced below by the corrected force
   s.carried_on_tool.setZero();
   s.contact_vertex_count = 0;
@@ -679,7 +684,7 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
     // Bounding-box distance first: most triangles are far.
     const Vec3 lo = a.cwiseMin(b).cwiseMin(q), hi = a.cwiseMax(b).cwiseMax(q);
     const double box_d2 = (c.cwiseMax(lo).cwiseMin(hi) - c).squaredNorm();
-    if (box_d2 >= r * r && (!model.closed_surface || box_d2 > nearest_d2)) continue;
+    if (box_d2 >= r * r && (!search_inside || box_d2 > nearest_d2)) continue;
     Vec3 w;
     const Vec3 p = closest_on_triangle(c, a, b, q, w);
     const double d2 = (c - p).squaredNorm();
@@ -706,7 +711,8 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
       if (hit.dist < hits[static_cast<size_t>(far)].dist) hits[static_cast<size_t>(far)] = hit;
     }
   }
-  const bool inside = model.closed_surface && nearest >= 0 && nearest_cos < 0;
+  const bool inside = model.closed_surface && nearest >= 0 && nearest_cos < 0 &&
+                      (search_inside || nearest_d2 < r * r);
   // Contact vertices and their direction sums g_i (up to kMaxContactVertices).
   std::array<Vec3, SpringState::kMaxContactVertices> g;
   auto add = [&](int vertex, const Vec3& gi) {
@@ -1316,6 +1322,44 @@ double add_volume_forces(const SpringNetwork& net, const double* x, size_t strid
   return energy;
 }
 
+namespace {
+
+// The volume term's forces on the padded layout (x at xv[8i …], sums at fr[8i …], x, y, z, 0), one
+// tetrahedron at a time with each corner one 256-bit vector: the same forces as add_volume_forces
+// (round-off level), cross products by lane rotations (u × v = (u ∘ v.yzx − u.yzx ∘ v).yzx).
+__attribute__((target("avx2,fma"))) void volume_pass_avx2(const SpringNetwork& net, const double* xv,
+                                                           double* fr) noexcept {
+  const double kappa = net.volume_modulus;
+  const size_t T = net.tets.size();
+  const __m256d k6 = _mm256_set1_pd(kappa / 6);
+#define PALPATE_YZX(u) _mm256_permute4x64_pd(u, 0xC9)  // (y, z, x, w)
+  for (size_t t = 0; t < T; ++t) {
+    const auto& q = net.tets[t];
+    const size_t i0 = 8 * static_cast<size_t>(q[0]), i1 = 8 * static_cast<size_t>(q[1]),
+                 i2 = 8 * static_cast<size_t>(q[2]), i3 = 8 * static_cast<size_t>(q[3]);
+    const __m256d p0 = _mm256_load_pd(xv + i0);
+    const __m256d a = _mm256_sub_pd(_mm256_load_pd(xv + i1), p0);
+    const __m256d b = _mm256_sub_pd(_mm256_load_pd(xv + i2), p0);
+    const __m256d c = _mm256_sub_pd(_mm256_load_pd(xv + i3), p0);
+    const __m256d ar = PALPATE_YZX(a), br = PALPATE_YZX(b), cr = PALPATE_YZX(c);
+    const __m256d g1 = PALPATE_YZX(_mm256_fmsub_pd(b, cr, _mm256_mul_pd(br, c)));  // 6 ∇V at corner 1: b × c
+    const __m256d g2 = PALPATE_YZX(_mm256_fmsub_pd(c, ar, _mm256_mul_pd(cr, a)));  // c × a
+    const __m256d g3 = PALPATE_YZX(_mm256_fmsub_pd(a, br, _mm256_mul_pd(ar, b)));  // a × b
+    const __m256d d = _mm256_mul_pd(a, g1);  // lane 3 is 0
+    const __m128d h2 = _mm_add_pd(_mm256_castpd256_pd128(d), _mm256_extractf128_pd(d, 1));
+    const double v6 = _mm_cvtsd_f64(_mm_add_sd(h2, _mm_unpackhi_pd(h2, h2)));
+    // −p / 6 = −κ (V − V0) / (6 V0) = κ/6 − κ · 6V / (36 V0)
+    const __m256d sv = _mm256_fnmadd_pd(_mm256_set1_pd(kappa / (36 * net.rest_volume[t])), _mm256_set1_pd(v6), k6);
+    _mm256_store_pd(fr + i1, _mm256_fmadd_pd(sv, g1, _mm256_load_pd(fr + i1)));
+    _mm256_store_pd(fr + i2, _mm256_fmadd_pd(sv, g2, _mm256_load_pd(fr + i2)));
+    _mm256_store_pd(fr + i3, _mm256_fmadd_pd(sv, g3, _mm256_load_pd(fr + i3)));
+    _mm256_store_pd(fr + i0, _mm256_fnmadd_pd(sv, _mm256_add_pd(_mm256_add_pd(g1, g2), g3), _mm256_load_pd(fr + i0)));
+  }
+#undef PALPATE_YZX
+}
+
+}  // namespace
+
 bool spring_pass_padded_available(const SpringModel& model) noexcept {
   return has_avx2_fma() && !model.network.springs.empty();
 }
@@ -1335,7 +1379,10 @@ double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const Ro
   } else {
     spring_pass_avx2(net, KP, model.options.dt, xv, fr);
   }
-  if (model.volume_term) add_volume_forces(net, xv, 8, fr, 8);
+  if (model.volume_term) {
+    if (kernel == SpringKernel::scalar) add_volume_forces(net, xv, 8, fr, 8);
+    else volume_pass_avx2(net, xv, fr);  // spring_pass_padded needs AVX2 + FMA anyway
+  }
   return p;
 }
 
