@@ -158,3 +158,24 @@ TEST(SpringContactSurface, ToolStartingInsideIsPushedOut) {
   EXPECT_GT(first_depth, 0.002 + 0.003 - 1e-4);  // the depth is the radius plus the centre's 3 mm
   EXPECT_LT(s.contact_depth, first_depth);
 }
+
+// No tunnelling: a 1 mm probe driven fast (0.1 m/s, a tenth of a millimetre per tick) 8 mm into a
+// block meshed 1 cm apart, between its vertices, deeper than its own diameter: once it touches, the
+// force never drops to zero and points out of the organ on every tick; it ends well above zero.
+TEST(SpringContactSurface, FastSmallProbeDoesNotTunnelThroughACoarseMesh) {
+  const double spacing = 0.01, top = 3 * spacing;
+  const SpringModel model = tissue_block(5, 4, 5, spacing, 1060, SpringContact::surface);
+  const Press p = press(model, top, 1.6 * spacing, 1.3 * spacing, 0.001, 0.008, 0.1, 0.1);
+  size_t first = 0;
+  while (first < p.force.size() && !(p.force[first] > 0)) ++first;
+  ASSERT_LT(first, p.force.size());
+  size_t zero_after = 0;
+  for (size_t k = first; k < p.force.size(); ++k)
+    if (!(p.force[k] > 0)) ++zero_after;
+  std::printf("fast probe: touched at tick %zu of %zu, settled %.4f N, largest fall %.4f, min fy %.4f\n", first,
+              p.force.size(), p.settled_force, largest_fall(p.force), p.min_force_y);
+  EXPECT_EQ(zero_after, 0u);
+  EXPECT_GE(p.min_force_y, 0.0);
+  EXPECT_GT(p.settled_force, 0.05);
+  EXPECT_EQ(p.resets, 0u);
+}
