@@ -114,6 +114,7 @@ const SpringModel& cached(const std::string& key) {
     }
     SpringModelOptions o = options(solver);
     if (today || key.find("/vertex_contact") != std::string::npos) o.contact = SpringContact::vertices;
+    if (key.find("/exact1") != std::string::npos) o.exact_iterations = 1;
     o.single_precision = single;
     auto predictor = *spring::build_predictor(net, o, amd_columns ? spring::SparseOrdering::amd
                                                                   : spring::SparseOrdering::fewest_nonzeros);
@@ -174,6 +175,13 @@ void BM_SpringTick_Organ10k_Volume(benchmark::State& s) { tick(s, "organ10k/volu
 // The two terms apart on the 1k block: the volume term with the first contact model.
 void BM_SpringTick_Block10_VolumeVertexContact(benchmark::State& s) { tick(s, "block10/volume/vertex_contact"); }
 BENCHMARK(BM_SpringTick_Block10_VolumeVertexContact)->Unit(benchmark::kMicrosecond);
+// Backward Euler's damping on request: one conjugate-gradient step toward the exact system per tick.
+void BM_SpringTick_Block10_VolumeExact1(benchmark::State& s) { tick(s, "block10/volume/exact1"); }
+void BM_SpringTick_Block20_VolumeExact1(benchmark::State& s) { tick(s, "block20/volume/exact1"); }
+void BM_SpringTick_Organ10k_VolumeExact1(benchmark::State& s) { tick(s, "organ10k/volume/exact1"); }
+BENCHMARK(BM_SpringTick_Block10_VolumeExact1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block20_VolumeExact1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Organ10k_VolumeExact1)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block10_Today)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block10_Volume)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block20_Today)->Unit(benchmark::kMicrosecond);

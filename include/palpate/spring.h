@@ -128,6 +128,12 @@ struct SpringModelOptions {
   // forces in float (tool force within 1e-4 of its peak: test
   // SpringSolve.SinglePrecisionAllPairsForcesStayWithinTheirBound).
   bool single_precision = false;
+  // Backward Euler's own damping (docs/models/mass-spring.md, "Damping"): after the predictor's
+  // step, this many preconditioned conjugate-gradient iterations on the exact linearised backward
+  // Euler system (the full spring Jacobian, as the exact solver's, and the volume term's), with the
+  // predictor as the preconditioner. Each costs one more solve and one pass over springs and
+  // tetrahedra. 0: the predictor alone (its transverse stiffness damps transverse motion more).
+  int exact_iterations = 0;
 };
 
 // The precomputed predictor: A = M + h(γI + C_L) + h²K_L over the n vertices, where K_L and C_L are
@@ -242,6 +248,7 @@ struct SpringState {
   double time = 0;  // s
   // Scratch, (n x 3) each.
   RowMat3d force, rhs, dv, work;
+  RowMat3d cg_r, cg_z, cg_p, cg_q, cg_d;  // exact_iterations > 0: the conjugate gradients' vectors
   std::vector<float> soa_single;  // all-pairs kernel in single precision: (9n) as soa, in float
   std::vector<double> soa;  // all-pairs kernel: (9N + 8), N = n rounded up to 8, structure-of-arrays
                             // copies from the first 64-byte boundary; other networks'

@@ -26,6 +26,7 @@ struct SpringMaterialDef {
   std::string predictor = "";      // predictor file; "" = next to the output
   std::string predictor_policy = "load_or_compute";  // load_or_compute | require_file
   bool single_precision = false;   // per-tick predictor (and uniform all-pairs forces) in float
+  int exact_iterations = 0;        // conjugate-gradient steps toward exact backward Euler per tick
 };
 
 std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*);

@@ -272,6 +272,13 @@ SpringState make_state(const SpringModel& model) {
   s.rhs = RowMat3d::Zero(n, 3);
   s.dv = RowMat3d::Zero(n, 3);
   s.work = RowMat3d::Zero(n, 3);
+  if (model.options.exact_iterations > 0 && model.predictor.kind != SpringSolver::exact) {
+    s.cg_r = RowMat3d::Zero(n, 3);
+    s.cg_z = RowMat3d::Zero(n, 3);
+    s.cg_p = RowMat3d::Zero(n, 3);
+    s.cg_q = RowMat3d::Zero(n, 3);
+    s.cg_d = RowMat3d::Zero(n, 3);
+  }
   size_t soa = model.all_pairs ? spring::all_pairs_scratch(static_cast<size_t>(n)) : 0;
   if (model.predictor.kind == SpringSolver::desbrun) soa = std::max(soa, spring::dense_scratch(static_cast<int>(n)));
   if (!model.supernodes.empty()) soa = std::max(soa, spring::supernodal_scratch(model.predictor, model.supernodes));

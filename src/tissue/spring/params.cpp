@@ -35,6 +35,9 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
        "on a missing or mismatched predictor file: recompute it, or stop", "load_or_compute|require_file"},
       {"single_precision", &D::single_precision, 0, 1, "",
        "keep the per-tick predictor (and uniform all-pairs forces) in float: faster, Δv to ~1e-6 relative"},
+      {"exact_iterations", &D::exact_iterations, 0, 20, "",
+       "after the predictor, this many conjugate-gradient steps on the exact backward-Euler system (the "
+       "predictor as preconditioner): backward Euler's damping of transverse motion, one solve more each"},
   };
   return table;
 }

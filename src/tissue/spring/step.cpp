@@ -818,6 +818,105 @@ void all_forces(const SpringModel& model, SpringState& s, const ToolState* tool,
   s.anchor_force = anchor_load(model, s.force);
 }
 
+// out += sign · (h² K y + h C w) with the exact Jacobian at x: per spring K_e = k [uuᵀ + max(0, 1 − L/l)
+// (I − uuᵀ)] (the exact solver's, positive semi-definite) and C_e = c uuᵀ, and per tetrahedron the
+// volume term's (κ/V0) ∇V ∇Vᵀ. Anchored vertices' rows are left for the caller to zero.
+void add_exact_jacobian(const SpringModel& model, const RowMat3d& x, const RowMat3d& y, const RowMat3d& w,
+                        RowMat3d& out, double sign) noexcept {
+  const SpringNetwork& net = model.network;
+  const double h = model.options.dt;
+  for (size_t e = 0; e < net.springs.size(); ++e) {
+    const int a = net.springs[e][0], b = net.springs[e][1];
+    const Vec3 d = (x.row(b) - x.row(a)).transpose();
+    const double l = d.norm();
+    if (!(l > 0)) continue;
+    const Vec3 u = d / l;
+    const Vec3 dy = (y.row(a) - y.row(b)).transpose(), dw = (w.row(a) - w.row(b)).transpose();
+    const double lateral = std::max(0.0, 1.0 - net.rest_length[e] / l);
+    const double uy = u.dot(dy);
+    const Vec3 t = sign * (h * h * net.stiffness[e] * (uy * u + lateral * (dy - uy * u)) + h * net.damping[e] * u.dot(dw) * u);
+    out.row(a) += t.transpose();
+    out.row(b) -= t.transpose();
+  }
+  if (!model.volume_term) return;
+  for (size_t k = 0; k < net.tets.size(); ++k) {
+    const auto& q = net.tets[k];
+    const auto g = spring::tet_volume_gradients(x.row(q[0]).transpose(), x.row(q[1]).transpose(),
+                                                x.row(q[2]).transpose(), x.row(q[3]).transpose());
+    double gy = 0;
+    for (int c = 0; c < 4; ++c) gy += g[static_cast<size_t>(c)].dot(y.row(q[static_cast<size_t>(c)]).transpose());
+    const double wgt = sign * h * h * net.volume_modulus / net.rest_volume[k] * gy;
+    for (int c = 0; c < 4; ++c) out.row(q[static_cast<size_t>(c)]) += wgt * g[static_cast<size_t>(c)].transpose();
+  }
+}
+
+// out += sign · (h² K_p y + h C_L w): the predictor's Laplacians (weights predictor_stiffness, damping).
+void add_predictor_jacobian(const SpringModel& model, const RowMat3d& y, const RowMat3d& w, RowMat3d& out,
+                            double sign) noexcept {
+  const SpringNetwork& net = model.network;
+  const double h = model.options.dt;
+  for (size_t e = 0; e < net.springs.size(); ++e) {
+    const int a = net.springs[e][0], b = net.springs[e][1];
+    const Eigen::RowVector3d t = sign * (h * h * model.predictor_stiffness[e] * (y.row(a) - y.row(b)) +
+                                         h * net.damping[e] * (w.row(a) - w.row(b)));
+    out.row(a) += t;
+    out.row(b) -= t;
+  }
+}
+
+void solve_predictor(const SpringModel& model, SpringState& s, const RowMat3d& b, RowMat3d& x) noexcept {
+  if (model.predictor.kind == SpringSolver::desbrun)
+    spring::solve_dense(model.predictor, model.inverse_single, b, x, s.soa.data());
+  else if (model.supernodes.empty()) spring::solve_columns(model.predictor, b, x, s.work);
+  else spring::solve_supernodal(model.predictor, model.supernodes, b, x, s.soa.data());
+}
+
+// Backward Euler's damping on request (SpringModelOptions::exact_iterations): the predictor's Δv
+// solves (M + hγ + hC_L + h²K_p) Δv = h (f − h K_p v); the exact linearised backward Euler (one
+// Newton step of the exact solver) has the true C and K instead. Its residual at the predictor's
+// Δv is r = h² (K_p − K)(v + Δv) + h (C_L − C) Δv; preconditioned conjugate gradients (the
+// predictor's matrix as the preconditioner; both symmetric positive definite) solve for the
+// correction δ, A δ = r, a few iterations. Free vertices only (anchored rows zero).
+void refine_toward_exact(const SpringModel& model, SpringState& s) noexcept {
+  const int iterations = model.options.exact_iterations;
+  if (iterations <= 0 || s.cg_r.rows() != s.x.rows() || model.all_pairs) return;
+  const double h = model.options.dt, gamma = model.options.point_damping;
+  const Eigen::Index n = s.x.rows();
+  auto zero_anchors = [&](RowMat3d& m) {
+    for (int a : model.network.anchors) m.row(a).setZero();
+  };
+  auto dot = [](const RowMat3d& a, const RowMat3d& b) { return (a.array() * b.array()).sum(); };
+  s.cg_q = s.v + s.dv;
+  s.cg_r.setZero();
+  add_predictor_jacobian(model, s.cg_q, s.dv, s.cg_r, 1.0);
+  add_exact_jacobian(model, s.x, s.cg_q, s.dv, s.cg_r, -1.0);
+  zero_anchors(s.cg_r);
+  s.cg_d.setZero();
+  solve_predictor(model, s, s.cg_r, s.cg_z);
+  zero_anchors(s.cg_z);
+  s.cg_p = s.cg_z;
+  double rz = dot(s.cg_r, s.cg_z);
+  for (int it = 0; it < iterations && rz > 0; ++it) {
+    // q = A p: masses and point damping, then the exact Jacobian's parts.
+    for (Eigen::Index i = 0; i < n; ++i)
+      s.cg_q.row(i) = (model.network.mass[static_cast<size_t>(i)] + h * gamma) * s.cg_p.row(i);
+    add_exact_jacobian(model, s.x, s.cg_p, s.cg_p, s.cg_q, 1.0);
+    zero_anchors(s.cg_q);
+    const double pq = dot(s.cg_p, s.cg_q);
+    if (!(pq > 0)) break;
+    const double alpha = rz / pq;
+    s.cg_d += alpha * s.cg_p;
+    if (it + 1 == iterations) break;
+    s.cg_r -= alpha * s.cg_q;
+    solve_predictor(model, s, s.cg_r, s.cg_z);
+    zero_anchors(s.cg_z);
+    const double rz_next = dot(s.cg_r, s.cg_z);
+    s.cg_p = s.cg_z + (rz_next / rz) * s.cg_p;
+    rz = rz_next;
+  }
+  s.dv += s.cg_d;
+}
+
 // The doubles of SpringState::soa the fused sparse step takes: the padded spring pass, then the
 // permuted right-hand side and the block being solved.
 size_t fused_scratch(const SpringModel& model) {
@@ -877,6 +976,7 @@ void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState
   s.anchor_force = anchor;
   spring::solve_supernodal_permuted(model.predictor, model.supernodes, z4, z4 + 4 * n);
   spring::unpermute_rows(model.predictor, z4, s.dv.data());
+  refine_toward_exact(model, s);
   if (correct) correct_angular_momentum(model, s, ext_torque, s.dv);
   s.v += s.dv;
   for (int a : net.anchors) s.v.row(a).setZero();
@@ -927,6 +1027,7 @@ void step_predictor(const SpringModel& model, SpringState& s, const ToolState* t
     spring::solve_dense(model.predictor, model.inverse_single, s.rhs, s.dv, s.soa.data());
   else if (model.supernodes.empty()) spring::solve_columns(model.predictor, s.rhs, s.dv, s.work);
   else spring::solve_supernodal(model.predictor, model.supernodes, s.rhs, s.dv, s.soa.data());
+  refine_toward_exact(model, s);
   if (correct) correct_angular_momentum(model, s, ext_torque, s.dv);
   s.v += s.dv;
   for (int a : net.anchors) s.v.row(a).setZero();
