@@ -278,7 +278,7 @@ TEST(SceneErrors, UnknownKeySuggestsTheClosestAndListsValidKeys) {
   // Far from every key: no suggestion; section keys are listed with the table's.
   EXPECT_EQ(error_of(std::string("colour: red\n") + kOneTissue),
             "s.yaml:1: colour: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, "
-            "anatomy, tissues");
+            "anatomy, probe, tissues");
   EXPECT_EQ(error_of(std::string("tool: {radus: 0.002}\n") + kOneTissue).substr(0, 57),
             "s.yaml:1: tool.radus: unknown key (did you mean 'radius'?");
 }
@@ -384,7 +384,7 @@ TEST(SceneErrors, EmptyFileAndNonMappingTopLevel) {
   // A short key far from every valid one gets no suggestion.
   EXPECT_EQ(error_of(std::string("<<: {}\n") + kOneTissue),
             "s.yaml:1: <<: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, anatomy, "
-            "tissues");
+            "probe, tissues");
   EXPECT_EQ(error_of("just text\n"),
             "s.yaml:1: expected a mapping of scene keys at the top level, got 'just text'");
 }

@@ -31,6 +31,15 @@ class ContactJacobianSource {
   virtual bool contact_jacobian(Eigen::Matrix3d& dforce_dposition) const noexcept = 0;
 };
 
+// A tool's force law other than the tissues' contact: evaluated on the haptic thread every tick
+// (noexcept, no allocation, no locks), the force on the tool (N) at its pose and the run's time (s).
+// The ultrasound probe's is NeckCompression (palpate/ultrasound.h).
+class ToolForceModel {
+ public:
+  virtual ~ToolForceModel() = default;
+  virtual Vec3 force(const Vec3& position, const Quat& orientation, double t) noexcept = 0;
+};
+
 enum class Coupling : std::uint8_t {
   direct,   // the force on the HIP goes to the device (the seed papers)
   virtual_  // a spring-damper to a tool proxy that the tissue pushes (stiff contact)

@@ -6,6 +6,7 @@
 #include <palpate/params.h>
 #include <palpate/spring_def.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -102,6 +103,39 @@ struct NeckDef {
                                   //   (0 = beside it, medial; 90 = right under it)
   double spacing = 0.001;         // m, particle spacing of skin and fat
   double vessel_spacing = 0.0008; // m, particle spacing of the vessel walls
+  // The layers the ultrasound image shows between skin and vessels, and the neck's mechanics under
+  // the probe (docs/ultrasound.md): an elastic half-space with the vessels as collapsible tubes.
+  double fat_thickness = 0.004;     // m, subcutaneous fat under the skin (image)
+  double muscle_thickness = 0.005;  // m, sternocleidomastoid under the fat (image)
+  double tissue_modulus = 10e3;     // Pa, Young's modulus of the neck's soft tissue (fat ≈ 3, muscle ≈ 10–20 kPa)
+  double poisson = 0.45;            // Poisson's ratio of the neck's soft tissue
+  double venous_pressure = 667;     // Pa, pressure in the IJV (5 mmHg; normal CVP 3–6 mmHg)
+  double vein_wall_stiffness = 300; // Pa, the IJV's tube-law stiffness K_p (Shapiro 1977)
+  double arterial_pressure = 12400; // Pa, mean pressure in the CCA (93 mmHg)
+  double pulse_pressure = 5330;     // Pa, systolic minus diastolic (40 mmHg)
+  double heart_rate = 1.2;          // Hz (72 beats per minute)
+  double artery_stiffness = 8;      // the CCA's stiffness parameter β (Hayashi), ln(P/Ps) = β(D/Ds − 1)
+};
+
+// The ultrasound probe, a second tool held in the other hand (docs/ultrasound.md): a linear
+// transducer whose footprint rests on the neck's skin, driven by its own device and safety filter,
+// and the B-mode image of the plane under it. Needs an `anatomy` (the image is of the neck).
+// At identity orientation the probe faces `axis` (into the skin) with its array along `lateral`;
+// the image plane is spanned by the two.
+struct ProbeDef {
+  double width = 0.038;           // m, footprint along the array (the image's width)
+  double thickness = 0.010;       // m, footprint across the array (elevation)
+  Vec3 axis = Vec3(0, -1, 0);     // unit, direction the probe faces at identity (beam direction)
+  Vec3 lateral = Vec3(1, 0, 0);   // unit, along the array at identity; perpendicular to `axis`
+  double frequency = 10e6;        // Hz, centre frequency (7–13 MHz linear probe)
+  double depth = 0.04;            // m, imaging depth
+  double gain = 0.0;              // dB, overall gain added after time-gain compensation
+  double dynamic_range = 60.0;    // dB, shown between black and white after log compression
+  double slice_thickness = 0.0015;// m, elevation beam width at focus
+  int image_width = 256;          // pixels across the array
+  int image_height = 256;         // pixels in depth
+  int seed = 1;                   // speckle's scatterer field (same seed, same images)
+  DeviceDef device;               // the second hand's device
 };
 
 struct SceneDef {
@@ -114,6 +148,7 @@ struct SceneDef {
   DeviceDef device;
   std::optional<CameraDef> camera;
   std::optional<NeckDef> anatomy;          // generated tissues come first in `tissues`
+  std::optional<ProbeDef> probe;           // the ultrasound probe (needs `anatomy`)
   std::vector<TissueDef> tissues;
 };
 
@@ -135,5 +170,6 @@ std::span<const Param<PatchDef>> param_table(const PatchDef*);
 std::span<const Param<MeshRef>> param_table(const MeshRef*);
 std::span<const Param<SceneDef>> param_table(const SceneDef*);
 std::span<const Param<NeckDef>> param_table(const NeckDef*);
+std::span<const Param<ProbeDef>> param_table(const ProbeDef*);
 
 }  // namespace palpate

@@ -78,6 +78,26 @@ std::span<const Param<CameraDef>> param_table(const CameraDef*) {
   return table;
 }
 
+std::span<const Param<ProbeDef>> param_table(const ProbeDef*) {
+  using D = ProbeDef;
+  static const Param<D> table[] = {
+      {"width", &D::width, 0.005, 0.1, "m", "footprint along the array: the image's width"},
+      {"thickness", &D::thickness, 0.002, 0.05, "m", "footprint across the array (elevation)"},
+      {"axis", &D::axis, -1.0, 1.0, "", "direction the probe faces at identity orientation (the beam); normalised on load"},
+      {"lateral", &D::lateral, -1.0, 1.0, "",
+       "direction of the array at identity orientation; perpendicular to `axis`; normalised on load"},
+      {"frequency", &D::frequency, 1e6, 20e6, "Hz", "centre frequency (linear vascular probe: 7–13 MHz)"},
+      {"depth", &D::depth, 0.01, 0.1, "m", "imaging depth"},
+      {"gain", &D::gain, -40.0, 40.0, "dB", "overall gain after time-gain compensation"},
+      {"dynamic_range", &D::dynamic_range, 20.0, 100.0, "dB", "range shown from black to white after log compression"},
+      {"slice_thickness", &D::slice_thickness, 2e-4, 0.01, "m", "elevation beam width at focus"},
+      {"image_width", &D::image_width, 16, 2048, "pixels", "image columns (across the array)"},
+      {"image_height", &D::image_height, 16, 2048, "pixels", "image rows (in depth)"},
+      {"seed", &D::seed, 0, 2147483647, "", "the speckle's scatterer field: the same seed gives the same images"},
+  };
+  return table;
+}
+
 std::span<const Param<NeckDef>> param_table(const NeckDef*) {
   using D = NeckDef;
   static const Param<D> table[] = {
@@ -96,6 +116,20 @@ std::span<const Param<NeckDef>> param_table(const NeckDef*) {
        "where the artery lies seen from the vein: 0 beside it (medial), 90 right under it (overlap)"},
       {"spacing", &D::spacing, 2e-4, 0.005, "m", "particle spacing of skin and fat"},
       {"vessel_spacing", &D::vessel_spacing, 1e-4, 0.005, "m", "particle spacing of the vessel walls"},
+      {"fat_thickness", &D::fat_thickness, 0.0, 0.05, "m", "subcutaneous fat under the skin, as the ultrasound shows it"},
+      {"muscle_thickness", &D::muscle_thickness, 0.0, 0.05, "m",
+       "sternocleidomastoid under the fat, as the ultrasound shows it"},
+      {"tissue_modulus", &D::tissue_modulus, 500.0, 1e6, "Pa",
+       "Young's modulus of the neck's soft tissue under the probe (elastic half-space)"},
+      {"poisson", &D::poisson, 0.0, 0.499, "", "Poisson's ratio of the neck's soft tissue"},
+      {"venous_pressure", &D::venous_pressure, 0.0, 5000.0, "Pa", "pressure in the vein (667 Pa = 5 mmHg; CVP 3–6 mmHg)"},
+      {"vein_wall_stiffness", &D::vein_wall_stiffness, 1.0, 1e5, "Pa",
+       "the vein's tube-law stiffness K_p: how hard it resists collapse (Shapiro 1977)"},
+      {"arterial_pressure", &D::arterial_pressure, 1000.0, 30000.0, "Pa", "mean pressure in the artery (12400 Pa = 93 mmHg)"},
+      {"pulse_pressure", &D::pulse_pressure, 0.0, 15000.0, "Pa", "systolic minus diastolic pressure (5330 Pa = 40 mmHg)"},
+      {"heart_rate", &D::heart_rate, 0.0, 4.0, "Hz", "pulse frequency (0 = no pulse)"},
+      {"artery_stiffness", &D::artery_stiffness, 1.0, 50.0, "",
+       "the artery's stiffness parameter β: ln(P/Ps) = β(D/Ds − 1) (Hayashi 1980; carotid ≈ 5–10)"},
   };
   return table;
 }
@@ -256,6 +290,10 @@ std::string scene_reference_markdown() {
                                 "Optional: a generated neck (docs/cvc.md). Its tissues — `skin`, `fat`, `ijv` "
                                 "(role vein), `cca` (role artery) — come before those listed in `tissues`.",
                                 {}, {}});
+  render_section<ProbeDef>(out, {"`probe`",
+                                 "Optional: the ultrasound probe held in the other hand (docs/ultrasound.md); "
+                                 "needs an `anatomy`. Its `device` section is read like the top-level `device`.",
+                                 kProbeSections, {}});
   render_section<TissueDef>(out, {"`tissues[]`",
                                   "Each tissue is a mapping with exactly one of `patch` and `mesh`; "
                                   "names are unique.",

@@ -28,6 +28,7 @@ inline constexpr SectionKey kSceneSections[] = {
     {"device", "mapping", "the haptic device that moves the tool (section `device`)"},
     {"camera", "mapping", "optional viewpoint for drawing (section `camera`)"},
     {"anatomy", "mapping", "optional generated anatomy, a neck (section `anatomy`)"},
+    {"probe", "mapping", "optional ultrasound probe with its own device (section `probe`); needs `anatomy`"},
     {"tissues", "list of mappings", "the tissues (section `tissues[]`); at least one, or an `anatomy`"},
 };
 // No key is required at the top level by the table: 'tissues' or 'anatomy' is checked by hand.
@@ -36,6 +37,9 @@ inline constexpr SectionKey kDeviceSections[] = {
     {"waypoints", "list of mappings",
      "scripted: timed positions `{t, position}`, optionally `direction`, times non-decreasing "
      "(section `device.waypoints[]`)"},
+};
+inline constexpr SectionKey kProbeSections[] = {
+    {"device", "mapping", "the probe's device, as the top-level `device` (section `device`)"},
 };
 inline constexpr const char* kWaypointRequired[] = {"t", "position"};
 

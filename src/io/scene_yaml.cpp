@@ -300,21 +300,21 @@ ToolDef parse_tool(const Ctx& c, const YAML::Node& node, int line) {
   return tool;
 }
 
-DeviceDef parse_device(const Ctx& c, const YAML::Node& node, int line) {
+DeviceDef parse_device(const Ctx& c, const YAML::Node& node, int line, const std::string& at = "device") {
   DeviceDef dev;
-  const Keys k = read_table(c, node, "device", line, "device", dev, kDeviceSections);
+  const Keys k = read_table(c, node, at, line, "device", dev, kDeviceSections);
   const bool scripted = dev.kind == "scripted";
   if (const auto w = k.sections.find("waypoints"); w != k.sections.end()) {
     const int wline = k.value_line("waypoints", line);
     if (!scripted)
-      c.fail(k.line_or("waypoints", line), "device.waypoints",
+      c.fail(k.line_or("waypoints", line), at + ".waypoints",
              "only a scripted device follows waypoints (kind is '" + dev.kind + "')");
     if (!w->second.IsSequence() || w->second.size() == 0)
-      c.fail(wline, "device.waypoints",
+      c.fail(wline, at + ".waypoints",
              "expected a non-empty list of {t, position[, direction]}, got " + describe(w->second));
     for (size_t i = 0; i < w->second.size(); ++i) {
       const YAML::Node e = w->second[i];
-      const std::string path = indexed("device.waypoints", i);
+      const std::string path = indexed(at + ".waypoints", i);
       const int eline = line_of(e, wline);
       Waypoint wp;
       const Keys wk = read_table(c, e, path, eline, "waypoint", wp, {}, kWaypointRequired);
@@ -329,21 +329,34 @@ DeviceDef parse_device(const Ctx& c, const YAML::Node& node, int line) {
   }
   if (!dev.trajectory.empty()) {
     if (!scripted)
-      c.fail(k.line_or("trajectory", line), "device.trajectory",
+      c.fail(k.line_or("trajectory", line), at + ".trajectory",
              "only a scripted device follows a trajectory (kind is '" + dev.kind + "')");
     if (!dev.waypoints.empty())
-      c.fail(k.line_or("trajectory", line), "device.trajectory",
+      c.fail(k.line_or("trajectory", line), at + ".trajectory",
              "give either 'waypoints' or 'trajectory', not both");
-    require_file(c, dev.trajectory, k.line_or("trajectory", line), "device.trajectory");
+    require_file(c, dev.trajectory, k.line_or("trajectory", line), at + ".trajectory");
   }
   if (dev.kind == "replay") {
-    if (dev.recording.empty()) c.fail(line, "device", "missing required key 'recording' (kind is 'replay')");
-    require_file(c, dev.recording, k.line_or("recording", line), "device.recording");
+    if (dev.recording.empty()) c.fail(line, at, "missing required key 'recording' (kind is 'replay')");
+    require_file(c, dev.recording, k.line_or("recording", line), at + ".recording");
   } else if (!dev.recording.empty()) {
-    c.fail(k.line_or("recording", line), "device.recording",
+    c.fail(k.line_or("recording", line), at + ".recording",
            "only a replay device plays a recording (kind is '" + dev.kind + "')");
   }
   return dev;
+}
+
+ProbeDef parse_probe(const Ctx& c, const YAML::Node& node, int line) {
+  ProbeDef p;
+  const Keys k = read_table(c, node, "probe", line, "probe", p, kProbeSections);
+  p.axis = unit_direction(c, p.axis, k.line_or("axis", line), "probe.axis");
+  p.lateral = unit_direction(c, p.lateral, k.line_or("lateral", line), "probe.lateral");
+  if (std::abs(p.axis.dot(p.lateral)) > 1e-6)
+    c.fail(k.line_or("lateral", line), "probe.lateral",
+           "must be perpendicular to probe.axis (their dot product is " + format_number(p.axis.dot(p.lateral)) + ")");
+  if (const auto d = k.sections.find("device"); d != k.sections.end())
+    p.device = parse_device(c, d->second, k.value_line("device", line), "probe.device");
+  return p;
 }
 
 CameraDef parse_camera(const Ctx& c, const YAML::Node& node, int line) {
@@ -461,6 +474,8 @@ SceneDef parse_root(const Ctx& c, const YAML::Node& root) {
     s.device = parse_device(c, n->second, k.value_line("device", 1));
   if (const auto n = k.sections.find("camera"); n != k.sections.end())
     s.camera = parse_camera(c, n->second, k.value_line("camera", 1));
+  if (const auto n = k.sections.find("probe"); n != k.sections.end())
+    s.probe = parse_probe(c, n->second, k.value_line("probe", 1));
 
   if (const auto n = k.sections.find("anatomy"); n != k.sections.end()) {
     const int aline = k.value_line("anatomy", 1);
@@ -472,6 +487,8 @@ SceneDef parse_root(const Ctx& c, const YAML::Node& root) {
     s.anatomy = neck;
     s.tissues = std::move(*made);
   }
+  if (s.probe && !s.anatomy)
+    c.fail(k.value_line("probe", 1), "probe", "needs an 'anatomy': the ultrasound images the generated neck");
   const auto tl = k.sections.find("tissues");
   if (tl == k.sections.end()) {
     if (!s.anatomy) c.fail(1, "tissues", "missing; expected a list of tissues, or an 'anatomy' that generates them");

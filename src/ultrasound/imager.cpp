@@ -1,0 +1,426 @@
+// imager.cpp — B-mode images of the neck under the probe (docs/ultrasound.md). Per pixel of the plane
+// under the probe: where that tissue was at rest (the probe's displacement field inverted), its
+// echogenicity and a complex scatterer amplitude drawn from a fixed random field in rest coordinates
+// (so speckle moves with the tissue and is never regenerated), specular echoes at interfaces and off
+// the needle, attenuation along the beam and time-gain compensation; then the convolution with the
+// probe's point-spread function (axial × lateral, the lateral width growing away from the focus:
+// Gao et al. 2009's separable convolution), envelope detection and log compression.
+#include <palpate/anatomy.h>
+#include <palpate/render.h>
+#include <palpate/ultrasound.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <random>
+
+namespace palpate {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kGrid = 16;           // coarse grid (per side) of the inverse displacement map
+constexpr int kElevation = 3;       // scatterer samples across the slice
+constexpr double kCell = 0.00012;   // m, scatterer cell in rest coordinates (below the resolution)
+constexpr double kGelFilm = 0.001;  // m, coupling gel between the face and the skin that still images
+constexpr size_t kTable = 1 << 12;  // complex Gaussian table (32 KiB: stays in L1)
+
+enum Medium : std::uint8_t { kGel, kSkin, kFat, kMuscle, kDeep, kWall, kBlood, kCount };
+
+// Acoustic figures per tissue (docs/ultrasound.md cites them): echogenicity (relative scatter
+// amplitude), attenuation (dB/(cm·MHz), one way) and acoustic impedance (MRayl).
+struct Acoustic {
+  double echo, attenuation, impedance;
+};
+constexpr Acoustic kAcoustic[kCount] = {
+    {0.0, 0.0, 1.50},    // coupling gel
+    {1.1, 0.35, 1.99},   // skin (dermis: hyperechoic)
+    {0.22, 0.63, 1.39},  // subcutaneous fat (hypoechoic, bright septa added)
+    {0.45, 1.10, 1.68},  // muscle
+    {0.55, 0.90, 1.63},  // deep connective tissue
+    {1.4, 1.57, 1.70},   // vessel wall (collagen: bright)
+    {0.006, 0.15, 1.61}, // blood (≈ 45 dB below tissue: anechoic)
+};
+
+// floor() without the libm call (x86-64 without SSE4.1 has no rounding instruction).
+inline std::int64_t fast_floor(double v) {
+  const auto i = static_cast<std::int64_t>(v);
+  return i - static_cast<std::int64_t>(v < static_cast<double>(i));
+}
+
+std::uint64_t mix(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+std::uint64_t cell_hash(std::int64_t i, std::int64_t j, std::int64_t k, std::uint64_t seed) {
+  return mix(seed ^ (std::uint64_t(i) * 0x8CB92BA72F3D8DD7ull) ^ (std::uint64_t(j) * 0xD6E8FEB86659FD93ull) ^
+             (std::uint64_t(k) * 0xA0761D6478BD642Full));
+}
+
+const std::vector<std::complex<float>>& gaussian_table() {
+  static const std::vector<std::complex<float>> table = [] {
+    std::vector<std::complex<float>> t(kTable);
+    std::mt19937_64 rng(20261125);
+    std::normal_distribution<float> n(0.f, std::sqrt(0.5f));  // E|z|² = 1
+    for (auto& z : t) z = {n(rng), n(rng)};
+    return t;
+  }();
+  return table;
+}
+
+std::vector<float> gaussian_kernel(double sigma_px) {
+  const int half = std::max(1, int(std::ceil(3 * sigma_px)));
+  std::vector<double> k(2 * half + 1);
+  double sum = 0;
+  for (int i = -half; i <= half; ++i) sum += k[i + half] = std::exp(-0.5 * i * i / (sigma_px * sigma_px));
+  std::vector<float> out(k.size());
+  for (size_t i = 0; i < k.size(); ++i) out[i] = float(k[i] / sum);  // unit gain for a constant input
+  return out;
+}
+
+// Distance (m) outside a vessel's section (negative inside), approximately: the normalised radius's
+// excess times the section's radius in that direction; and the outward normal there.
+double section_distance(const VesselSection& v, const Vec3& p, Vec3* normal) {
+  Vec3 d = p - v.centre;
+  d -= d.dot(v.axis) * v.axis;
+  const double far = v.a + 0.002;  // a ≥ b: beyond this the tissue is plainly outside
+  if (d.squaredNorm() > far * far) return 1.0;
+  const Vec3 across = v.axis.cross(v.minor_dir);
+  const double x = d.dot(across), y = d.dot(v.minor_dir);
+  const double rho = std::sqrt(x * x / (v.a * v.a) + y * y / (v.b * v.b));
+  const double r = d.norm();
+  if (normal) {
+    const Vec3 n = (x / (v.a * v.a)) * across + (y / (v.b * v.b)) * v.minor_dir;
+    *normal = n.norm() > 0 ? Vec3(n.normalized()) : Vec3(v.minor_dir);
+  }
+  if (rho <= 1e-12) return -std::min(v.a, v.b);
+  return (rho - 1) * (r / rho);
+}
+
+}  // namespace
+
+UltrasoundImager::UltrasoundImager(const NeckDef& neck, const ProbeDef& probe) : model_(neck, probe) {
+  const int w = probe.image_width, h = probe.image_height;
+  const double px_w = probe.width / w, px_d = probe.depth / h;
+  const double c = 1540.0, lambda = c / probe.frequency;
+  // Axial resolution: a 2-cycle pulse, FWHM = cycles·λ/2 (Kremkau's rule, 0.77·cycles/f mm).
+  // A 3-cycle pulse, widened by the attenuation's downshift of the centre frequency: 0.3 mm at 10 MHz.
+  const double axial_fwhm = 3 * lambda / 2 * 1.3;
+  axial_kernel_ = gaussian_kernel(std::max(0.6, axial_fwhm / 2.355 / px_d));
+  // Lateral: λ·F# at the focus (F# ≈ 2 for a linear array), focus at 40 % of the depth, widening
+  // off focus like a Gaussian beam (Rayleigh range z_R = π w0² / λ).
+  const double w0 = 2 * lambda * 2 / 2.355;  // σ at the focus
+  // Dynamic receive focusing keeps the width nearly constant in depth: the beam widens as a Gaussian
+  // beam would with three times its Rayleigh range.
+  const double focus = 0.4 * probe.depth, zr = 3 * kPi * (2 * w0) * (2 * w0) / lambda;
+  lateral_kernel_.resize(h);
+  for (int r = 0; r < h; ++r) {
+    const double z = (r + 0.5) * px_d;
+    const double sigma = w0 * std::sqrt(1 + std::pow((z - focus) / zr, 2));
+    lateral_kernel_[r] = gaussian_kernel(std::max(0.6, sigma / px_w));
+  }
+  (void)gaussian_table();
+}
+
+Vec3 UltrasoundImager::pixel_position(const ProbePose& probe, double column, double row) const noexcept {
+  const NeckCompression::Frame f = model_.frame(probe);
+  const ProbeDef& p = model_.probe();
+  return f.origin + (-0.5 * p.width + (column + 0.5) * p.width / p.image_width) * f.lateral +
+         ((row + 0.5) * p.depth / p.image_height) * f.beam;
+}
+
+void UltrasoundImager::set_vein_wall(std::span<const Vec3f> rest, std::span<const Vec3f> now) {
+  const size_t n = rest.size() == now.size() ? rest.size() : 0;
+  wall_rest_.assign(rest.begin(), rest.begin() + std::ptrdiff_t(n));
+  wall_now_.assign(now.begin(), now.begin() + std::ptrdiff_t(n));
+}
+
+void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, double t, UltrasoundImage& out) {
+  const ProbeDef& p = model_.probe();
+  const NeckDef& n = model_.neck();
+  const int W = p.image_width, H = p.image_height;
+  const size_t N = size_t(W) * size_t(H);
+  out.width = W, out.height = H;
+  out.pixel_width = p.width / W, out.pixel_depth = p.depth / H;
+  out.grey.resize(N);
+  out.envelope.resize(N);
+  field_.resize(N);
+  tmp_.resize(N);
+
+  const NeckCompression::State s = model_.state(probe, t);
+  const NeckCompression::Frame f = model_.frame(probe);
+  const auto pixel = [&](double col, double row) {
+    return Vec3(f.origin + (-0.5 * p.width + (col + 0.5) * out.pixel_width) * f.lateral +
+                ((row + 0.5) * out.pixel_depth) * f.beam);
+  };
+
+  // The inverse displacement map on a coarse grid: rest position X of the tissue now at x solves
+  // X + u(X) = x (fixed point; u is smooth and small against its length scale).
+  std::vector<Vec3>& rest = rest_;
+  rest.resize((kGrid + 1) * (kGrid + 1));
+  for (int gy = 0; gy <= kGrid; ++gy) {
+    for (int gx = 0; gx <= kGrid; ++gx) {
+      const Vec3 x = pixel(-0.5 + double(gx) * W / kGrid, -0.5 + double(gy) * H / kGrid);
+      Vec3 X = x;
+      for (int it = 0; it < 4; ++it) X = x - model_.displacement(s, X);
+      rest[gy * (kGrid + 1) + gx] = X;
+    }
+  }
+  const auto rest_at = [&](int col, int row) {
+    const double fx = (col + 0.5) * kGrid / W, fy = (row + 0.5) * kGrid / H;
+    const int ix = std::min(kGrid - 1, int(fx)), iy = std::min(kGrid - 1, int(fy));
+    const double ax = fx - ix, ay = fy - iy;
+    const Vec3& a = rest[iy * (kGrid + 1) + ix];
+    const Vec3& b = rest[iy * (kGrid + 1) + ix + 1];
+    const Vec3& c = rest[(iy + 1) * (kGrid + 1) + ix];
+    const Vec3& d = rest[(iy + 1) * (kGrid + 1) + ix + 1];
+    return Vec3((1 - ay) * ((1 - ax) * a + ax * b) + ay * ((1 - ax) * c + ax * d));
+  };
+
+  // The vessels' sections along the plane's extent (a longitudinal view cuts them unevenly).
+  constexpr int kSections = 9;
+  VesselSection vein[kSections], artery[kSections];
+  const double z0 = std::min(pixel(0, 0).z(), pixel(W - 1, 0).z()) - 1e-9;
+  const double z1 = std::max(pixel(0, 0).z(), pixel(W - 1, 0).z()) + 1e-9;
+  for (int k = 0; k < kSections; ++k) {
+    const Vec3 along(0, 0, z0 + (z1 - z0) * k / (kSections - 1));
+    vein[k] = model_.vein_at(s, along);
+    artery[k] = model_.artery_at(s, along);
+  }
+  const auto section_index = [&](double z) {
+    return std::clamp(int(fast_floor((z - z0) / (z1 - z0) * (kSections - 1) + 0.5)), 0, kSections - 1);
+  };
+
+  // The needle's tenting of the vein's wall near the plane: the largest inward displacement of the
+  // wall's particles within the slice, per sector of the vein's section (angle about its centre).
+  constexpr int kSectors = 48;
+  double tent[kSectors] = {};
+  bool tented = false;
+  const VesselGeometry vein_rest = neck_vein(n);
+  const VesselSection& vein_mid = vein[kSections / 2];
+  const Vec3 across_mid = vein_mid.axis.cross(vein_mid.minor_dir);
+  for (size_t k = 0; k < wall_rest_.size(); ++k) {
+    const Vec3 r = wall_rest_[k].cast<double>(), now = wall_now_[k].cast<double>();
+    if (std::abs((r - f.origin).dot(f.elevation)) > p.slice_thickness) continue;
+    Vec3 radial = r - vein_rest.axis_point;
+    radial -= radial.dot(vein_rest.axis) * vein_rest.axis;
+    if (radial.norm() < 1e-9) continue;
+    radial.normalize();
+    const double inward = -(now - r).dot(radial);
+    if (!(inward > 0)) continue;
+    const double angle = std::atan2(radial.dot(vein_mid.minor_dir), radial.dot(across_mid));
+    const int sector = int(std::floor((angle + kPi) / (2 * kPi) * kSectors)) % kSectors;
+    tent[sector] = std::max(tent[sector], inward);
+    tented = true;
+  }
+  const auto tent_at = [&](const Vec3& x, const VesselSection& v) {
+    Vec3 d = x - v.centre;
+    d -= d.dot(v.axis) * v.axis;
+    const double pos = (std::atan2(d.dot(v.minor_dir), d.dot(v.axis.cross(v.minor_dir))) + kPi) / (2 * kPi) * kSectors - 0.5;
+    const int i0 = int(std::floor(pos));
+    const double w = pos - i0;
+    return (1 - w) * tent[((i0 % kSectors) + kSectors) % kSectors] + w * tent[(((i0 + 1) % kSectors) + kSectors) % kSectors];
+  };
+
+  const double rn = n.neck_radius, skin = n.skin_thickness, fat = skin + n.fat_thickness;
+  const double muscle = fat + n.muscle_thickness;
+  constexpr double wall = 0.0006;  // m, vessel wall thickness in the image
+  const auto& table = gaussian_table();
+  const std::uint64_t seed = std::uint64_t(p.seed);
+  const double mhz = p.frequency * 1e-6;
+  const double px_cm = out.pixel_depth * 100;
+  // The needle's shaft: from the tip back along its axis.
+  const Vec3 shaft_dir = needle.axis.normalized();
+  const double sigma_e = p.slice_thickness / 2.355;
+  // The shaft's echo comes off its near wall: a thin line (under a pixel), its width then the PSF's.
+  const double needle_sigma = 0.6 * std::max(out.pixel_depth, out.pixel_width);
+  const double beam_cross = needle.present ? shaft_dir.cross(f.beam).norm() : 0;
+  const double needle_gain = 30.0 * (0.25 + 0.75 * std::pow(beam_cross, 4));
+  const double reverb_step = 2 * needle.radius;  // ring-down between the shaft's walls
+  // Beyond this distance from the shaft's line the needle's echo and its reverberation are nil.
+  constexpr int kReverb = 3;  // reverberation copies under the shaft
+  const double needle_reach = 5 * std::max(needle_sigma, sigma_e) + kReverb * reverb_step;
+  // Attenuation per pixel of each medium and the time-gain compensation per row, as factors.
+  double atten_step[kCount];
+  for (int m = 0; m < kCount; ++m) atten_step[m] = std::pow(10.0, -2 * kAcoustic[m].attenuation * mhz * px_cm / 20);
+  std::vector<double>& tgc = tgc_;
+  tgc.resize(H);
+  for (int r = 0; r < H; ++r) tgc[r] = std::pow(10.0, (2 * 0.8 * mhz * (r + 0.5) * px_cm + p.gain) / 20);
+
+  out.in_contact = false;
+  for (int col = 0; col < W; ++col) {
+    double atten = 1;              // two-way, accumulated down the column
+    double transmit = 1;           // left after specular losses (interfaces, the needle)
+    Medium above = kGel;
+    // Coupled when the face touches the skin through at most a film of gel; otherwise air: no image.
+    Vec3 top_rest = rest_at(col, 0) - Vec3(0, -rn, 0);
+    top_rest.z() = 0;
+    const bool coupled = rn - top_rest.norm() - 0.5 * out.pixel_depth > -kGelFilm;
+    const Vec3 top = pixel(col, 0), step = out.pixel_depth * f.beam;
+    // The rows where this beam passes near each vessel (|d(row)|² is quadratic in the row): only
+    // there is the section's distance worth computing.
+    const auto near_rows = [&](const VesselSection& v, int& lo, int& hi) {
+      Vec3 d0 = top - v.centre, d1 = step;
+      d0 -= d0.dot(v.axis) * v.axis, d1 -= d1.dot(v.axis) * v.axis;
+      const double far = v.a + 0.003, qa = d1.squaredNorm(), qb = 2 * d0.dot(d1), qc = d0.squaredNorm() - far * far;
+      const double disc = qb * qb - 4 * qa * qc;
+      if (qa <= 0 || disc < 0) {
+        lo = 0, hi = qc < 0 ? H : -1;
+        return;
+      }
+      lo = int(std::floor((-qb - std::sqrt(disc)) / (2 * qa))), hi = int(std::ceil((-qb + std::sqrt(disc)) / (2 * qa)));
+    };
+    const int mid = section_index(top.z());
+    int vein_lo, vein_hi, artery_lo, artery_hi;
+    near_rows(vein[mid], vein_lo, vein_hi);
+    near_rows(artery[mid], artery_lo, artery_hi);
+    const bool uneven = std::abs(f.beam.z()) > 1e-6;  // the beam runs along the vessels: check every row
+    std::complex<float>* column = &field_[size_t(col) * H];  // column-major: the beam's samples in a row
+    for (int row = 0; row < H; ++row) {
+      const Vec3 x = top + row * step;
+      // Which tissue is here now: vessels by their current sections, the rest by rest position.
+      const int sk = section_index(x.z());
+      Vec3 normal = -f.beam;
+      Medium tissue;
+      const bool by_vein = uneven || (row >= vein_lo && row <= vein_hi);
+      const bool by_artery = uneven || (row >= artery_lo && row <= artery_hi);
+      double dv = by_vein ? section_distance(vein[sk], x, &normal) : 1.0;
+      if (tented && dv < 0.003) dv += tent_at(x, vein[sk]);  // the wall pushed in: more of it outside
+      Vec3 na = -f.beam;
+      const double da = by_artery ? section_distance(artery[sk], x, &na) : 1.0;
+      Vec3 X = rest_at(col, row);
+      Vec3 radial = X - Vec3(0, -rn, 0);
+      radial.z() = 0;
+      const double depth = rn - radial.norm();
+      if (dv < 0 || da < 0) {
+        tissue = kBlood;
+        if (da < dv) normal = na;
+      } else if (dv < wall || da < wall) {
+        tissue = kWall;
+        if (da < dv) normal = na;
+      } else if (depth < -1e-4) {
+        tissue = kGel;
+      } else if (depth < skin) {
+        tissue = kSkin;
+      } else if (depth < fat) {
+        tissue = kFat;
+      } else if (depth < muscle) {
+        tissue = kMuscle;
+      } else {
+        tissue = kDeep;
+      }
+
+      // Scatter: a fixed complex Gaussian field in rest coordinates, summed across the slice.
+      std::complex<float> z(0, 0);
+      double echo = kAcoustic[tissue].echo;
+      if (tissue == kFat) {
+        // Fibrous septa: thin bright bands roughly parallel to the skin, wavy across.
+        const double u = (depth - skin) / 0.0011 + 0.25 * std::sin(X.x() / 0.0023 + 1.7 * std::sin(X.z() / 0.004));
+        const double fr = u - std::floor(u);
+        if (fr < 0.12) echo *= 3.2;
+      } else if (tissue == kMuscle) {
+        // Fibre bundles cut across: a mottled texture on a millimetre scale.
+        const std::uint64_t hsh = cell_hash(fast_floor(X.x() / 0.0009), fast_floor(depth / 0.0006), 7, seed);
+        echo *= 0.6 + 0.8 * double(hsh & 0xFF) / 255.0;
+      }
+      if (echo > 0) {
+        for (int e = 0; e < kElevation; ++e) {
+          const Vec3 Xe = X + ((e - 1) * p.slice_thickness / kElevation) * f.elevation;
+          const std::uint64_t hsh = cell_hash(fast_floor(Xe.x() * (1 / kCell)), fast_floor(Xe.y() * (1 / kCell)),
+                                              fast_floor(Xe.z() * (1 / kCell)), seed);
+          z += table[hsh & (kTable - 1)];
+        }
+        z *= float(echo / std::sqrt(double(kElevation)));
+      }
+      // Specular echo where the tissue changes along the beam, strongest facing the beam.
+      if (tissue != above && above != kGel && tissue != kGel) {
+        if (tissue != kWall && tissue != kBlood && above != kWall && above != kBlood) normal = radial.normalized();
+        const double za = kAcoustic[above].impedance, zb = kAcoustic[tissue].impedance;
+        const double refl = std::abs(zb - za) / (za + zb);
+        const double facing = std::pow(std::abs(normal.dot(f.beam)), 4);
+        z += std::complex<float>(float(14.0 * refl * facing * transmit), 0.f);
+        transmit *= 1 - refl * refl;
+      }
+      if (tissue == kWall) z += std::complex<float>(float(0.6 * std::pow(std::abs(normal.dot(f.beam)), 2)), 0.f);
+      // The needle: a strong specular reflector where it meets the plane (elevation beam profile),
+      // with reverberation under it (ring-down inside the shaft) and a shadow beneath.
+      if (needle.present && (x - needle.tip).cross(shaft_dir).squaredNorm() < needle_reach * needle_reach) {
+        // The shaft's nearest point: the slice's beam profile (elevation) is the same for the
+        // reverberation's copies (they lie along the beam), and they lie only below the shaft.
+        const double along0 = std::clamp((x - needle.tip).dot(-shaft_dir), 0.0, needle.length);
+        const Vec3 d0 = x - (needle.tip - along0 * shaft_dir);
+        const double e0 = d0.dot(f.elevation), below = d0.dot(f.beam);
+        const double elev = 0.5 * e0 * e0 / (sigma_e * sigma_e);
+        double hit = 0, weight = 1;
+        if (elev < 12 && below > -5 * needle_sigma && below < kReverb * reverb_step + 5 * needle_sigma) {
+          for (int k = 0; k <= kReverb; ++k, weight *= 0.4) {
+            const Vec3 q = x - (k * reverb_step) * f.beam;
+            const double along = std::clamp((q - needle.tip).dot(-shaft_dir), 0.0, needle.length);
+            const Vec3 d = q - (needle.tip - along * shaft_dir);
+            const double e = d.dot(f.elevation);
+            const double arg = 0.5 * (d - e * f.elevation).squaredNorm() / (needle_sigma * needle_sigma) +
+                               0.5 * e * e / (sigma_e * sigma_e);
+            if (arg < 12) hit += weight * std::exp(-arg);
+          }
+        }
+        if (hit > 1e-4) {
+          z += std::complex<float>(float(needle_gain * hit * transmit), 0.f);
+          transmit *= 1 - 0.3 * std::min(1.0, hit);
+        }
+      }
+      // Attenuation (two-way, down to this pixel) and time-gain compensation for 0.8 dB/(cm·MHz).
+      atten *= atten_step[tissue];
+      const double amp = coupled ? transmit * atten * tgc[row] : 0.0;
+      column[row] = z * float(amp);
+      above = tissue;
+    }
+    out.in_contact = out.in_contact || coupled;
+  }
+
+  // Point-spread function: along the beam, then across with the row's lateral width.
+  const int ha = int(axial_kernel_.size() / 2);
+  for (int col = 0; col < W; ++col) {
+    const std::complex<float>* in = &field_[size_t(col) * H];
+    for (int row = 0; row < H; ++row) {
+      const int lo = std::max(-ha, -row), hi = std::min(ha, H - 1 - row);
+      std::complex<float> acc(0, 0);
+      for (int k = lo; k <= hi; ++k) acc += in[row + k] * axial_kernel_[k + ha];
+      tmp_[size_t(row) * W + col] = acc;
+    }
+  }
+  for (int row = 0; row < H; ++row) {
+    const std::vector<float>& kl = lateral_kernel_[row];
+    const int hl = int(kl.size() / 2);
+    const std::complex<float>* in = &tmp_[size_t(row) * W];
+    for (int col = 0; col < W; ++col) {
+      std::complex<float> acc(0, 0);
+      const int lo = std::max(-hl, -col), hi = std::min(hl, W - 1 - col);
+      for (int k = lo; k <= hi; ++k) acc += in[col + k] * kl[k + hl];
+      out.envelope[size_t(row) * W + col] = std::sqrt(acc.real() * acc.real() + acc.imag() * acc.imag());
+    }
+  }
+  // Log compression: 0 dB (white) at 8× the unit-echogenicity speckle's mean, `dynamic_range` to black.
+  const float ref = 8.0f, dr = float(p.dynamic_range), to_db = 20.0f / std::log(10.0f);
+  for (size_t i = 0; i < N; ++i) {
+    const float e = out.envelope[i];
+    const float db = e > 0 ? to_db * std::log(e / ref) : -1e9f;
+    out.grey[i] = std::uint8_t(std::clamp(255.0f * (db + dr) / dr + 0.5f, 0.0f, 255.0f));
+  }
+}
+
+Status write_ultrasound_png(const UltrasoundImage& image, const std::filesystem::path& file) {
+  Image rgba;
+  rgba.width = image.width, rgba.height = image.height;
+  rgba.rgba.resize(size_t(image.width) * image.height * 4);
+  for (size_t i = 0; i < image.grey.size(); ++i) {
+    const std::uint8_t g = image.grey[i];
+    rgba.rgba[4 * i] = rgba.rgba[4 * i + 1] = rgba.rgba[4 * i + 2] = g;
+    rgba.rgba[4 * i + 3] = 255;
+  }
+  return write_png(rgba, file);
+}
+
+}  // namespace palpate
