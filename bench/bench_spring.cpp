@@ -61,6 +61,17 @@ SpringNetwork liver() {
   return anchor_bottom(*make_spring_network(*tets, o, "liver"));
 }
 
+// Issue 21's comparison: the same tet meshes as tissue (E = 5 kPa, 1060 kg/m³), as today (springs,
+// per-vertex contact) and with the new terms (poisson_ratio 0.48: the volume term; surface contact).
+SpringNetwork tissue(const TetMesh& mesh, bool volume, const std::string& where) {
+  SpringNetworkOptions o;
+  o.topology = SpringTopology::tet_edges;
+  o.youngs_modulus = 5000;
+  o.poisson_ratio = volume ? 0.48 : 0.0;
+  o.density = 1060;
+  return anchor_bottom(*make_spring_network(mesh, o, where));
+}
+
 SpringNetwork paper_organ() {
   SpringNetworkOptions o;
   o.topology = SpringTopology::all_pairs;
@@ -95,7 +106,15 @@ const SpringModel& cached(const std::string& key) {
     else if (name == "organ10k") net = organ(13.4);
     else if (name == "liver10k") net = liver();
     else if (name == "organ50k") net = organ(22.9);
+    const bool today = key.find("/today") != std::string::npos, volume = key.find("/volume") != std::string::npos;
+    if (today || volume) {
+      if (name == "block10") net = tissue(spring::make_block(10, 10, 10, 0.005), volume, "block");
+      else if (name == "block20") net = tissue(spring::make_block(20, 20, 20, 0.005), volume, "block");
+      else if (name == "organ10k") net = tissue(spring::make_tet_ball(13.4 * 0.002, 0.002), volume, "organ");
+    }
     SpringModelOptions o = options(solver);
+    if (today || key.find("/vertex_contact") != std::string::npos) o.contact = SpringContact::vertices;
+    if (key.find("/exact1") != std::string::npos) o.exact_iterations = 1;
     o.single_precision = single;
     auto predictor = *spring::build_predictor(net, o, amd_columns ? spring::SparseOrdering::amd
                                                                   : spring::SparseOrdering::fewest_nonzeros);
@@ -141,7 +160,34 @@ void tick(benchmark::State& state, const std::string& key) {
                                      : sn.values.size() * 8 + sn.values_single.size() * 4 + sn.rows.size() * 4) /
           (1024.0 * 1024.0);
   state.counters["nnz_L"] = static_cast<double>(p.value.size());
+  state.counters["tets"] = static_cast<double>(model.network.tets.size());
+  state.counters["contacts"] = static_cast<double>(s.contacts);
 }
+
+// Issue 21: today's tick (springs, per-vertex contact) against the one with the volume term and the
+// surface contact, on the same meshes as tissue, in one run (the probe presses 2 mm, as above).
+void BM_SpringTick_Block10_Today(benchmark::State& s) { tick(s, "block10/today"); }
+void BM_SpringTick_Block10_Volume(benchmark::State& s) { tick(s, "block10/volume"); }
+void BM_SpringTick_Block20_Today(benchmark::State& s) { tick(s, "block20/today"); }
+void BM_SpringTick_Block20_Volume(benchmark::State& s) { tick(s, "block20/volume"); }
+void BM_SpringTick_Organ10k_Today(benchmark::State& s) { tick(s, "organ10k/today"); }
+void BM_SpringTick_Organ10k_Volume(benchmark::State& s) { tick(s, "organ10k/volume"); }
+// The two terms apart on the 1k block: the volume term with the first contact model.
+void BM_SpringTick_Block10_VolumeVertexContact(benchmark::State& s) { tick(s, "block10/volume/vertex_contact"); }
+BENCHMARK(BM_SpringTick_Block10_VolumeVertexContact)->Unit(benchmark::kMicrosecond);
+// Backward Euler's damping on request: one conjugate-gradient step toward the exact system per tick.
+void BM_SpringTick_Block10_VolumeExact1(benchmark::State& s) { tick(s, "block10/volume/exact1"); }
+void BM_SpringTick_Block20_VolumeExact1(benchmark::State& s) { tick(s, "block20/volume/exact1"); }
+void BM_SpringTick_Organ10k_VolumeExact1(benchmark::State& s) { tick(s, "organ10k/volume/exact1"); }
+BENCHMARK(BM_SpringTick_Block10_VolumeExact1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block20_VolumeExact1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Organ10k_VolumeExact1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block10_Today)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block10_Volume)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block20_Today)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block20_Volume)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Organ10k_Today)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Organ10k_Volume)->Unit(benchmark::kMicrosecond);
 
 void BM_SpringTick_PaperAllPairs500(benchmark::State& s) { tick(s, "paper"); }
 void BM_SpringTick_Block10_Dense(benchmark::State& s) { tick(s, "block10_dense"); }

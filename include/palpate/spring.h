@@ -32,6 +32,14 @@ enum class SpringSolver {
   exact,    // Newton on the full non-linear backward Euler, re-assembled each step (reference)
 };
 
+// How the tool touches the organ.
+enum class SpringContact {
+  surface,   // the tool's sphere against the surface triangles, a penalty k_c·depth made implicit by a
+             // per-tick correction and carried from tick to tick (docs/models/mass-spring.md, "Contact")
+  vertices,  // the first model: an explicit penalty on each vertex inside the sphere, k_c clamped to
+             // (m_i + hγ)/h² for stability (a probe smaller than the spacing slips between vertices)
+};
+
 // What building a model does when its predictor file is missing or does not match.
 enum class PredictorPolicy {
   load_or_compute,  // load the file when it matches; otherwise compute (and write it, if named)
@@ -48,8 +56,20 @@ struct SpringNetwork {
   std::vector<double> damping;                // (s) N·s/m, along the spring
   std::vector<std::array<int, 3>> triangles;  // the drawn surface over the vertices (may be empty)
   std::vector<int> anchors;                   // fixed vertices, sorted, unique
+  // The volume term (docs/models/mass-spring.md, "Volume"): on each tetrahedron T the energy
+  // ½ κ (V_T − V0_T)² / V0_T, a force −κ (V_T − V0_T)/V0_T ∇V_T on its corners. Empty or κ = 0: none.
+  std::vector<std::array<int, 4>> tets;       // (T) tetrahedra, positively oriented at rest
+  std::vector<double> rest_volume;            // (T) m³
+  double volume_modulus = 0;                  // Pa, κ
   size_t size() const { return mass.size(); }
 };
+
+// The weight of each spring in the predictor's constant matrix: its stiffness plus the volume
+// term's share, the isotropic part of its rest Hessian (β κ / V0) G_ab with G_ab = −∇_a V0 · ∇_b V0
+// summed over the tetrahedra holding the edge (β = kVolumePredictorScale). (s) N/m; equal to
+// network.stiffness when there is no volume term. Every tetrahedron's edges must be springs.
+inline constexpr double kVolumePredictorScale = 1.5;
+std::vector<double> predictor_stiffness(const SpringNetwork& network);
 
 // How a network is made from a mesh.
 struct SpringNetworkOptions {
@@ -59,6 +79,10 @@ struct SpringNetworkOptions {
   double spring_damping = 0.1;   // N·s/m per spring
   double mass = 0.1;             // kg total, shared equally; used when density == 0
   double density = 0.0;          // kg/m³; > 0 lumps each vertex's mass from the volume it carries
+  // > 0 (tetrahedral meshes with youngs_modulus, in [0.25, 0.5)): springs carry the shear modulus
+  // μ = E / 2(1 + ν) and a per-tetrahedron volume term the rest of the bulk modulus, so the
+  // network responds as an isotropic solid of (E, ν) (docs/models/mass-spring.md). 0: springs only.
+  double poisson_ratio = 0.0;
   std::vector<int> anchors;      // fixed vertex indices
 };
 
@@ -84,8 +108,11 @@ struct SpringModelOptions {
   bool gravity = true;
   double gravity_acceleration = 9.8;           // m/s², along −y
   bool angular_momentum_correction = true;     // the predictor's post-step correction
-  double contact_stiffness = 500.0;            // N/m per vertex inside the probe (clamped for stability)
-  double contact_damping = 0.05;               // N·s/m per vertex inside the probe, normal direction
+  SpringContact contact = SpringContact::surface;
+  double contact_stiffness = 500.0;            // N/m: surface, tool force per metre of depth (the device's
+                                               // rendered stiffness in series with the tissue's); vertices,
+                                               // per vertex inside the probe (clamped for stability)
+  double contact_damping = 0.05;               // N·s/m along the contact normal (vertices: per vertex inside)
   double grasp_radius = 0.002;                 // m beyond the tool's radius that grasping reaches
   double grasp_stiffness = 200.0;              // N/m per grasped vertex (clamped for stability)
   int newton_iterations = 30;                  // exact solver: most Newton iterations per step
@@ -101,6 +128,12 @@ struct SpringModelOptions {
   // forces in float (tool force within 1e-4 of its peak: test
   // SpringSolve.SinglePrecisionAllPairsForcesStayWithinTheirBound).
   bool single_precision = false;
+  // Backward Euler's own damping (docs/models/mass-spring.md, "Damping"): after the predictor's
+  // step, this many preconditioned conjugate-gradient iterations on the exact linearised backward
+  // Euler system (the full spring Jacobian, as the exact solver's, and the volume term's), with the
+  // predictor as the preconditioner. Each costs one more solve and one pass over springs and
+  // tetrahedra. 0: the predictor alone (its transverse stiffness damps transverse motion more).
+  int exact_iterations = 0;
 };
 
 // The precomputed predictor: A = M + h(γI + C_L) + h²K_L over the n vertices, where K_L and C_L are
@@ -178,6 +211,8 @@ struct SpringModel {
   SpringSupernodes supernodes;          // sparse: the factor as the step uses it (built from predictor)
   std::vector<float> inverse_single;    // desbrun with single_precision: (n x n) row-major A⁻¹ in float
   double uniform_stiffness = 0;         // N/m when every spring has this stiffness (else 0): K_L v in O(n)
+  std::vector<double> predictor_stiffness;  // (s) N/m, each spring's weight in A (predictor_stiffness())
+  bool volume_term = false;             // the network has tetrahedra with a volume modulus > 0
   std::vector<float> rest_length_single;  // all-pairs with single_precision and uniform springs: (s) m
   bool uniform_damping = false;         // every spring has the same damping (the all-pairs kernel reads
                                         // no per-spring stiffness or damping when both are uniform)
@@ -187,6 +222,9 @@ struct SpringModel {
   std::vector<int> adjacency_start;     // (n + 1) CSR of springs per vertex
   std::vector<int> adjacency;           // (2s) spring indices touching each vertex
   double total_mass = 0;                // kg
+  bool closed_surface = false;          // every triangle edge shared by two triangles: inside is defined
+  std::vector<double> contact_compliance;  // (n) 1 / (m_i + hγ), 0 for an anchored vertex: an upper bound
+                                           // of the vertex's row of A⁻¹ (A ≥ M + hγI), 1/kg
   bool all_pairs = false;               // springs are every pair (i < j) in order: the O(n²) kernel
 };
 
@@ -210,6 +248,7 @@ struct SpringState {
   double time = 0;  // s
   // Scratch, (n x 3) each.
   RowMat3d force, rhs, dv, work;
+  RowMat3d cg_r, cg_z, cg_p, cg_q, cg_d;  // exact_iterations > 0: the conjugate gradients' vectors
   std::vector<float> soa_single;  // all-pairs kernel in single precision: (9n) as soa, in float
   std::vector<double> soa;  // all-pairs kernel: (9N + 8), N = n rounded up to 8, structure-of-arrays
                             // copies from the first 64-byte boundary; other networks'
@@ -224,6 +263,16 @@ struct SpringState {
   int grasped_count = 0;
   bool grasping = false;
   // What the last step found.
+  // Surface contact: the contact force the last step ended with, on each vertex it acts on (the next
+  // step starts with it as an external force, then corrects it), and its size F (N).
+  static constexpr int kMaxContactVertices = 96;
+  static constexpr int kMaxContactTriangles = 32;
+  std::array<int, kMaxContactVertices> contact_vertex{};
+  std::array<Vec3, kMaxContactVertices> contact_load{};  // N, on the organ at contact_vertex
+  int contact_vertex_count = 0;
+  double contact_force = 0;          // N, F = k_c · depth once settled
+  double contact_depth = 0;          // m, the tool's sphere into the surface after the last step
+  Vec3 carried_on_tool = Vec3::Zero();  // N, the carried force's reaction on the tool this step
   Vec3 tool_force = Vec3::Zero();    // N, on the tool
   Vec3 anchor_force = Vec3::Zero();  // N, exerted by the anchors on the organ
   int contacts = 0;                  // vertices inside the probe

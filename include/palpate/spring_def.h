@@ -11,6 +11,7 @@ struct SpringMaterialDef {
   std::string solver = "desbrun";  // desbrun | sparse | exact
   double stiffness = 100.0;        // N/m per spring; ignored when youngs_modulus > 0
   double youngs_modulus = 0.0;     // Pa; > 0 derives each spring's stiffness from it
+  double poisson_ratio = 0.0;      // > 0: a volume term on tetrahedra, in [0.25, 0.5); needs youngs_modulus
   double spring_damping = 0.1;     // N·s/m along each spring
   double point_damping = 0.5;      // N·s/m, the paper's −γẋ on each mass
   double mass = 0.1;               // kg, total; ignored when density > 0
@@ -18,12 +19,14 @@ struct SpringMaterialDef {
   bool gravity = true;             // 9.8 m/s² along −y
   double gravity_acceleration = 9.8;  // m/s², magnitude of gravity along −y
   bool angular_momentum_correction = true;  // the predictor's post-step correction (DS99)
-  double contact_stiffness = 500.0;  // N/m per vertex inside the probe
+  std::string contact = "surface";   // surface | vertices
+  double contact_stiffness = 500.0;  // N/m: the contact's penalty (surface: per metre of depth)
   double grasp_radius = 0.002;       // m beyond the tool's radius that grasping reaches
   double grasp_stiffness = 200.0;    // N/m per grasped vertex
   std::string predictor = "";      // predictor file; "" = next to the output
   std::string predictor_policy = "load_or_compute";  // load_or_compute | require_file
   bool single_precision = false;   // per-tick predictor (and uniform all-pairs forces) in float
+  int exact_iterations = 0;        // conjugate-gradient steps toward exact backward Euler per tick
 };
 
 std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*);

@@ -125,7 +125,9 @@ Status save_predictor(const std::filesystem::path& file, const SpringModel& mode
   w.put(model.options.point_damping);
   w.put_array(net.mass.data(), net.mass.size());
   w.put_array(net.springs.data()->data(), 2 * net.springs.size());
-  w.put_array(net.stiffness.data(), net.stiffness.size());
+  // Each spring's weight in A: its stiffness, plus the volume term's share when there is one.
+  const std::vector<double> weight = predictor_stiffness(net);
+  w.put_array(weight.data(), weight.size());
   w.put_array(net.damping.data(), net.damping.size());
   w.put_array(net.anchors.data(), net.anchors.size());
   if (p.kind == SpringSolver::desbrun) {
@@ -229,9 +231,10 @@ Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const 
       return Error{other + "topology: spring " + std::to_string(e) + " joins " + std::to_string(pairs[2 * e]) + "-" +
                    std::to_string(pairs[2 * e + 1]) + " in the file, " + std::to_string(net.springs[e][0]) + "-" +
                    std::to_string(net.springs[e][1]) + " here"};
+  const std::vector<double> weight = predictor_stiffness(net);  // stiffness, plus the volume term's share
   for (size_t e = 0; e < s; ++e)
-    if (stiffness[e] != net.stiffness[e])
-      return Error{other + "stiffness of spring " + std::to_string(e) + " is " + num(stiffness[e]) + " N/m in the file, " + num(net.stiffness[e]) + " N/m here"};
+    if (stiffness[e] != weight[e])
+      return Error{other + "stiffness of spring " + std::to_string(e) + " is " + num(stiffness[e]) + " N/m in the file, " + num(weight[e]) + " N/m here" + (net.tets.empty() ? "" : " (with the volume term's share)")};
   for (size_t e = 0; e < s; ++e)
     if (damping[e] != net.damping[e])
       return Error{other + "damping of spring " + std::to_string(e) + " is " + num(damping[e]) + " N·s/m in the file, " + num(net.damping[e]) + " here"};

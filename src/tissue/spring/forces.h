@@ -6,6 +6,21 @@
 
 namespace palpate::spring {
 
+// ∇V of a tetrahedron's volume V = (x1 − x0)·((x2 − x0) × (x3 − x0)) / 6 at each corner:
+// g1 = (x2 − x0) × (x3 − x0) / 6, g2 = (x3 − x0) × (x1 − x0) / 6, g3 = (x1 − x0) × (x2 − x0) / 6,
+// g0 = −(g1 + g2 + g3). m²
+inline std::array<Vec3, 4> tet_volume_gradients(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3) {
+  const Vec3 a = x1 - x0, b = x2 - x0, c = x3 - x0;
+  const Vec3 g1 = b.cross(c) / 6, g2 = c.cross(a) / 6, g3 = a.cross(b) / 6;
+  return {-(g1 + g2 + g3), g1, g2, g3};
+}
+
+// The volume term's forces (SpringNetwork::tets): on each tetrahedron the pressure
+// p = κ (V − V0) / V0 pushes its corners along −p ∇V, i.e. toward its rest volume, also from
+// inverted (V < 0) configurations. x: vertex i's position at x[stride i …]; forces added at
+// f[fstride i …]. Returns the volume term's elastic energy Σ ½ κ (V − V0)² / V0 (J).
+double add_volume_forces(const SpringNetwork& net, const double* x, size_t stride, double* f, size_t fstride) noexcept;
+
 // Hooke-plus-damper spring forces added to f, and in the same pass over the springs the predictor
 // right-hand side's −h K_L v term added to r (DS99 §4.2):
 //   f_i += [k_e (l − L_e) + c_e (v_j − v_i)·u] u,  f_j −= the same,  u = (x_j − x_i)/l (none when l = 0),

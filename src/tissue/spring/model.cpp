@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <span>
 #include <string>
+#include <unordered_map>
 
 namespace palpate {
 
@@ -30,13 +31,14 @@ std::vector<std::uint8_t> anchored_flags(const SpringNetwork& net) {
 std::vector<Eigen::Triplet<double>> predictor_triplets(const SpringNetwork& net, const SpringModelOptions& o) {
   const double h = o.dt;
   const auto anchored = anchored_flags(net);
+  const std::vector<double> k = predictor_stiffness(net);
   std::vector<double> diag(net.size());
   for (size_t i = 0; i < net.size(); ++i) diag[i] = net.mass[i] + h * o.point_damping;
   std::vector<Eigen::Triplet<double>> t;
   t.reserve(net.size() + 2 * net.springs.size());
   for (size_t e = 0; e < net.springs.size(); ++e) {
     const auto [a, b] = net.springs[e];
-    const double w = h * net.damping[e] + h * h * net.stiffness[e];
+    const double w = h * net.damping[e] + h * h * k[e];
     diag[static_cast<size_t>(a)] += w;
     diag[static_cast<size_t>(b)] += w;
     if (anchored[static_cast<size_t>(a)] || anchored[static_cast<size_t>(b)]) continue;
@@ -215,6 +217,8 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
                       std::all_of(m.network.damping.begin(), m.network.damping.end(),
                                   [&](double c) { return c == m.network.damping.front(); });
   m.anchored = anchored_flags(m.network);
+  m.predictor_stiffness = predictor_stiffness(m.network);
+  m.volume_term = !m.network.tets.empty() && m.network.volume_modulus > 0;
   const size_t n = m.network.size();
   const double h = options.dt;
   m.max_contact_stiffness.resize(n);
@@ -231,6 +235,21 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
     for (int v : m.network.springs[e]) m.adjacency[static_cast<size_t>(fill[static_cast<size_t>(v)]++)] = static_cast<int>(e);
   m.total_mass = 0;
   for (double mi : m.network.mass) m.total_mass += mi;
+  m.contact_compliance.resize(n);
+  for (size_t i = 0; i < n; ++i)
+    m.contact_compliance[i] = m.anchored[i] ? 0.0 : 1.0 / (m.network.mass[i] + h * options.point_damping);
+  {
+    // Closed: every undirected edge of the drawn triangles is used exactly twice.
+    std::unordered_map<std::uint64_t, int> uses;
+    for (const auto& t : m.network.triangles)
+      for (int k = 0; k < 3; ++k) {
+        const int a = std::min(t[static_cast<size_t>(k)], t[static_cast<size_t>((k + 1) % 3)]);
+        const int b = std::max(t[static_cast<size_t>(k)], t[static_cast<size_t>((k + 1) % 3)]);
+        ++uses[(static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b)];
+      }
+    m.closed_surface = !m.network.triangles.empty() &&
+                       std::all_of(uses.begin(), uses.end(), [](const auto& u) { return u.second == 2; });
+  }
   m.all_pairs = n > 2 && is_all_pairs(m.network);
   if (m.all_pairs && options.single_precision && m.uniform_stiffness > 0 && m.uniform_damping)
     m.rest_length_single.assign(m.network.rest_length.begin(), m.network.rest_length.end());
@@ -253,6 +272,13 @@ SpringState make_state(const SpringModel& model) {
   s.rhs = RowMat3d::Zero(n, 3);
   s.dv = RowMat3d::Zero(n, 3);
   s.work = RowMat3d::Zero(n, 3);
+  if (model.options.exact_iterations > 0 && model.predictor.kind != SpringSolver::exact) {
+    s.cg_r = RowMat3d::Zero(n, 3);
+    s.cg_z = RowMat3d::Zero(n, 3);
+    s.cg_p = RowMat3d::Zero(n, 3);
+    s.cg_q = RowMat3d::Zero(n, 3);
+    s.cg_d = RowMat3d::Zero(n, 3);
+  }
   size_t soa = model.all_pairs ? spring::all_pairs_scratch(static_cast<size_t>(n)) : 0;
   if (model.predictor.kind == SpringSolver::desbrun) soa = std::max(soa, spring::dense_scratch(static_cast<int>(n)));
   if (!model.supernodes.empty()) soa = std::max(soa, spring::supernodal_scratch(model.predictor, model.supernodes));
@@ -275,6 +301,10 @@ void reset(const SpringModel& model, SpringState& s) noexcept {
   s.tool_force.setZero();
   s.anchor_force.setZero();
   s.contacts = 0;
+  s.contact_vertex_count = 0;
+  s.contact_force = 0;
+  s.contact_depth = 0;
+  s.carried_on_tool.setZero();
 }
 
 }  // namespace palpate

@@ -2,6 +2,7 @@
 // stiffness from a Young's modulus (Van Gelder 1998; docs/models/mass-spring.md).
 #include <palpate/spring.h>
 
+#include "tissue/spring/forces.h"
 #include "tissue/spring/shapes.h"
 
 #include <algorithm>
@@ -76,9 +77,19 @@ Status finish(SpringNetwork& net, const SpringNetworkOptions& o, const std::vect
   net.stiffness.assign(s, o.stiffness);
   if (o.youngs_modulus > 0) {
     if (!edge_volume.empty()) {
-      // Van Gelder (1998), volume form: k_e = E Σ_{T∋e} V_T / |e|².
+      // Van Gelder (1998), volume form: k_e = α Σ_{T∋e} V_T / |e|². With edge directions spread
+      // evenly, this network is an isotropic solid with λ = μ = 2α/5 (Cauchy's relation of
+      // central forces), so E = α and ν = 1/4. With a Poisson ratio ν ≥ 1/4 the springs carry
+      // the shear modulus μ = E / 2(1 + ν), α = 5μ/2, and the tetrahedra's volume term the
+      // rest of λ: κ = λ − μ = μ (4ν − 1) / (1 − 2ν) (docs/models/mass-spring.md, "Volume").
+      double alpha = o.youngs_modulus;
+      if (o.poisson_ratio > 0) {
+        const double mu = o.youngs_modulus / (2 * (1 + o.poisson_ratio));
+        alpha = 2.5 * mu;
+        net.volume_modulus = mu * (4 * o.poisson_ratio - 1) / (1 - 2 * o.poisson_ratio);
+      }
       for (size_t e = 0; e < s; ++e)
-        net.stiffness[e] = o.youngs_modulus * edge_volume[e] / (net.rest_length[e] * net.rest_length[e]);
+        net.stiffness[e] = alpha * edge_volume[e] / (net.rest_length[e] * net.rest_length[e]);
     } else {
       // No elements per spring: one stiffness with the same total Σ k_e |e|² = 6 E V as the
       // tetrahedral rule (each tet has six edges).
@@ -126,6 +137,14 @@ Result<SpringNetworkOptions> network_options(const SpringMaterialDef& m, std::ve
   o.spring_damping = m.spring_damping;
   o.mass = m.mass;
   o.density = m.density;
+  o.poisson_ratio = m.poisson_ratio;
+  if (m.poisson_ratio > 0 && !(m.poisson_ratio >= 0.25 && m.poisson_ratio < 0.5))
+    return Error{where + ": poisson_ratio " + fmt_num(m.poisson_ratio) +
+                 " is outside [0.25, 0.5): a spring network alone is 0.25, the volume term only adds to it"};
+  if (m.poisson_ratio > 0 && !(m.youngs_modulus > 0))
+    return Error{where + ": poisson_ratio needs youngs_modulus (the volume term's modulus is derived from both)"};
+  if (m.poisson_ratio > 0 && o.topology == SpringTopology::all_pairs)
+    return Error{where + ": poisson_ratio needs tet_edges or edges on a tetrahedral mesh, not all_pairs"};
   o.anchors = std::move(anchors);
   return o;
 }
@@ -152,6 +171,10 @@ Result<SpringNetwork> make_spring_network(const TetMesh& mesh, const SpringNetwo
                    " m³, expected > 0 (degenerate or inverted)"};
     total += vol;
     for (int k = 0; k < 4; ++k) carried[static_cast<size_t>(mesh.T(t, k))] += vol / 4;
+    if (o.poisson_ratio > 0 && o.topology != SpringTopology::all_pairs) {
+      net.tets.push_back({mesh.T(t, 0), mesh.T(t, 1), mesh.T(t, 2), mesh.T(t, 3)});
+      net.rest_volume.push_back(vol);
+    }
     if (o.topology != SpringTopology::all_pairs)
       for (const auto& e : kEdges) {
         const size_t idx = static_cast<size_t>(set.add(mesh.T(t, e[0]), mesh.T(t, e[1])));
@@ -159,7 +182,10 @@ Result<SpringNetwork> make_spring_network(const TetMesh& mesh, const SpringNetwo
         edge_volume[idx] += vol;
       }
   }
+  if (o.poisson_ratio > 0 && !(o.youngs_modulus > 0))
+    return Error{where + ": poisson_ratio needs youngs_modulus"};
   if (o.topology == SpringTopology::all_pairs) {
+    if (o.poisson_ratio > 0) return Error{where + ": poisson_ratio needs tet_edges or edges, not all_pairs"};
     all_pairs(net);
     edge_volume.clear();
   } else {
@@ -172,6 +198,8 @@ Result<SpringNetwork> make_spring_network(const TetMesh& mesh, const SpringNetwo
 
 Result<SpringNetwork> make_spring_network(const SurfaceMesh& mesh, const SpringNetworkOptions& o,
                                           const std::string& where) {
+  if (o.poisson_ratio > 0)
+    return Error{where + ": poisson_ratio needs a tetrahedral mesh (topology tet_edges fills a surface)"};
   if (o.topology == SpringTopology::tet_edges)
     return Error{where + ": topology tet_edges needs a tetrahedral mesh; fill the surface with "
                          "tetrahedralize() first, or use edges or all_pairs"};
@@ -238,11 +266,54 @@ Status validate(const SpringNetwork& net, const std::string& where) {
   for (int a : net.anchors)
     if (a < 0 || static_cast<size_t>(a) >= n)
       return Error{where + ": anchor " + std::to_string(a) + " is not a vertex (expected 0.." + std::to_string(n - 1) + ")"};
+  if (net.rest_volume.size() != net.tets.size())
+    return Error{where + ": " + std::to_string(net.rest_volume.size()) + " rest volumes for " +
+                 std::to_string(net.tets.size()) + " tetrahedra"};
+  if (!(net.volume_modulus >= 0) || !std::isfinite(net.volume_modulus))
+    return Error{where + ": the volume modulus must be finite and >= 0"};
+  for (size_t t = 0; t < net.tets.size(); ++t) {
+    for (int v : net.tets[t])
+      if (v < 0 || static_cast<size_t>(v) >= n)
+        return Error{where + ": tetrahedron " + std::to_string(t) + " uses vertex " + std::to_string(v)};
+    if (!(net.rest_volume[t] > 0) || !std::isfinite(net.rest_volume[t]))
+      return Error{where + ": tetrahedron " + std::to_string(t) + " has rest volume " + fmt_num(net.rest_volume[t])};
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) {
+        const int i = net.tets[t][static_cast<size_t>(a)], j = net.tets[t][static_cast<size_t>(b)];
+        if (i == j || !seen.count(pair_key(std::min(i, j), std::max(i, j))))
+          return Error{where + ": tetrahedron " + std::to_string(t) + "'s edge " + std::to_string(i) + "-" +
+                       std::to_string(j) + " is not a spring (the volume term's predictor needs it)"};
+      }
+  }
   for (const auto& t : net.triangles)
     for (int v : t)
       if (v < 0 || static_cast<size_t>(v) >= n)
         return Error{where + ": a drawn triangle uses vertex " + std::to_string(v) + ", expected 0.." + std::to_string(n - 1)};
   return {};
+}
+
+std::vector<double> predictor_stiffness(const SpringNetwork& net) {
+  std::vector<double> k = net.stiffness;
+  if (net.tets.empty() || !(net.volume_modulus > 0)) return k;
+  std::unordered_map<std::uint64_t, size_t> index;
+  index.reserve(net.springs.size());
+  for (size_t e = 0; e < net.springs.size(); ++e) {
+    const auto [a, b] = net.springs[e];
+    index.emplace(pair_key(std::min(a, b), std::max(a, b)), e);
+  }
+  for (size_t t = 0; t < net.tets.size(); ++t) {
+    const auto& T = net.tets[t];
+    const auto g = spring::tet_volume_gradients(net.rest.row(T[0]).transpose(), net.rest.row(T[1]).transpose(),
+                                                net.rest.row(T[2]).transpose(), net.rest.row(T[3]).transpose());
+    const double w = kVolumePredictorScale * net.volume_modulus / net.rest_volume[t];
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) {
+        const int i = T[static_cast<size_t>(a)], j = T[static_cast<size_t>(b)];
+        const auto it = index.find(pair_key(std::min(i, j), std::max(i, j)));
+        if (it != index.end()) k[it->second] -= w * g[static_cast<size_t>(a)].dot(g[static_cast<size_t>(b)]);
+      }
+  }
+  return k;
 }
 
 }  // namespace palpate

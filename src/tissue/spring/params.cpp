@@ -11,6 +11,9 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
       {"stiffness", &D::stiffness, 0.0, 1e9, "N/m", "stiffness of each spring"},
       {"youngs_modulus", &D::youngs_modulus, 0.0, 1e10, "Pa",
        "when > 0, each spring's stiffness is derived from it (docs/models/mass-spring.md)"},
+      {"poisson_ratio", &D::poisson_ratio, 0.0, 0.499, "",
+       "when > 0 (0.25 to 0.499, tetrahedra and youngs_modulus): springs carry the shear modulus and a "
+       "per-tetrahedron volume term the rest of the bulk modulus, which also resists inversion"},
       {"spring_damping", &D::spring_damping, 0.0, 1e6, "N·s/m", "damping along each spring"},
       {"point_damping", &D::point_damping, 0.0, 1e6, "N·s/m", "the paper's −γẋ on every mass"},
       {"mass", &D::mass, 1e-9, 1e6, "kg", "total mass, shared by the vertices"},
@@ -19,8 +22,12 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
       {"gravity_acceleration", &D::gravity_acceleration, 0.0, 100.0, "m/s²", "magnitude of gravity"},
       {"angular_momentum_correction", &D::angular_momentum_correction, 0, 1, "",
        "the predictor's post-step correction that keeps a free body's angular momentum"},
+      {"contact", &D::contact, 0, 0, "",
+       "the tool against the surface triangles (a penalty made implicit, any vertex mass), or the first "
+       "model's explicit penalty on each vertex inside it (clamped)", "surface|vertices"},
       {"contact_stiffness", &D::contact_stiffness, 0.0, 1e7, "N/m",
-       "penalty stiffness per vertex inside the probe (clamped for stability)"},
+       "surface: the contact's stiffness, force per metre of the tool's depth into the surface; vertices: per "
+       "vertex inside the probe (clamped for stability)"},
       {"grasp_radius", &D::grasp_radius, 0.0, 1.0, "m", "reach of grasping beyond the tool's radius"},
       {"grasp_stiffness", &D::grasp_stiffness, 0.0, 1e7, "N/m", "stiffness tying each grasped vertex to the tool"},
       {"predictor", &D::predictor, 0, 0, "", "predictor file written by `palpate precompute`"},
@@ -28,6 +35,9 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
        "on a missing or mismatched predictor file: recompute it, or stop", "load_or_compute|require_file"},
       {"single_precision", &D::single_precision, 0, 1, "",
        "keep the per-tick predictor (and uniform all-pairs forces) in float: faster, Δv to ~1e-6 relative"},
+      {"exact_iterations", &D::exact_iterations, 0, 20, "",
+       "after the predictor, this many conjugate-gradient steps on the exact backward-Euler system (the "
+       "predictor as preconditioner): backward Euler's damping of transverse motion, one solve more each"},
   };
   return table;
 }

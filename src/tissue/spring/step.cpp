@@ -40,6 +40,7 @@ void add_spring_forces(const SpringNetwork& net, const RowMat3d& x, const RowMat
     f(i, 0) += g * dx; f(i, 1) += g * dy; f(i, 2) += g * dz;
     f(j, 0) -= g * dx; f(j, 1) -= g * dy; f(j, 2) -= g * dz;
   }
+  if (!net.tets.empty() && net.volume_modulus > 0) spring::add_volume_forces(net, x.data(), 3, f.data(), 3);
 }
 
 // The all-pairs spring forces, rows i = 0 … n − 2 against j = i + 1 … n − 1 (the springs in
@@ -506,6 +507,17 @@ Vec3 add_tool_forces(const SpringModel& model, SpringState& s, const ToolState& 
     f.row(i) += fi.transpose();
     on_tool -= fi;
   }
+  if (o.contact == SpringContact::surface) {
+    // The contact force the last step ended with acts through this one (surface_contact corrects it
+    // after the solve).
+    s.carried_on_tool.setZero();
+    for (int k = 0; k < s.contact_vertex_count; ++k) {
+      const int i = s.contact_vertex[static_cast<size_t>(k)];
+      f.row(i) += s.contact_load[static_cast<size_t>(k)].transpose();
+      s.carried_on_tool -= s.contact_load[static_cast<size_t>(k)];
+    }
+    return on_tool + s.carried_on_tool;
+  }
   if (r <= 0 || o.contact_stiffness <= 0) return on_tool;
   const double r2 = r * r;
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -587,6 +599,207 @@ bool finite_and_slow(const SpringModel& model, const SpringState& s) noexcept {
   return true;
 }
 
+// The point of triangle (a, b, c) closest to p, and its barycentric weights (Ericson 2005, "Real-Time
+// Collision Detection", §5.1.5).
+Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, Vec3& w) noexcept {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) { w = Vec3(1, 0, 0); return a; }
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) { w = Vec3(0, 1, 0); return b; }
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const double t = d1 / (d1 - d3);
+    w = Vec3(1 - t, t, 0);
+    return a + t * ab;
+  }
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) { w = Vec3(0, 0, 1); return c; }
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const double t = d2 / (d2 - d6);
+    w = Vec3(1 - t, 0, t);
+    return a + t * ac;
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    w = Vec3(0, 1 - t, t);
+    return b + t * (c - b);
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom, u = vc * denom;
+  w = Vec3(1 - v - u, v, u);
+  return a + v * ab + u * ac;
+}
+
+// Surface contact, after the solve (docs/models/mass-spring.md, "Contact"). The tool's sphere
+// (centre c, radius r) against the surface triangles at the new positions: each triangle t whose
+// closest point p_t lies within r, on its outer side, is pressed with weight φ_t = r − |c − p_t|
+// along n_t = (c − p_t)/|c − p_t| (weights ω_t ∝ φ_t with |Σ ω_t n_t| = 1); a centre inside a closed surface presses only the nearest
+// triangle, by r + its distance, along its outward normal, so the tool is pushed out. The depth
+// Φ = max φ_t. The force F on the tool is a penalty k_c Φ, made stable whatever the vertex masses
+// by solving for it implicitly each tick against the contact vertices' compliance
+// c = Σ_i |g_i|² / (m_i + hγ), g_i = Σ_t (φ_t / Σφ) w_t,i n_t (an upper bound of the true one, since
+// A ≥ M + hγ: the update under-relaxes, never overshoots):
+//   F⁺ = max(0, k_c (Φ + h² c F) / (1 + k_c h² c)),
+// the step having already carried F. The difference F⁺ − F moves the contact vertices now
+// (Δv_i = −h (F⁺ − F) g_i / (m_i + hγ)) and acts as −F⁺ g_i in the next step. At rest F⁺ = F, so
+// F = k_c Φ: a penalty of stiffness k_c in series with the tissue, independent of the masses.
+void surface_contact(const SpringModel& model, SpringState& s, const ToolState& tool) noexcept {
+  const SpringNetwork& net = model.network;
+  const double h = model.options.dt, kc = model.options.contact_stiffness;
+  const double r = std::max(tool.radius, 0.0);
+  const double f_prev = s.contact_vertex_count > 0 ? s.contact_force : 0.0;
+  // Whether the centre may be inside a closed surface deeper than r (then no triangle is within r
+  // and the nearest one decides): only after a contact (the tool went in through the surface, or
+  // faster than r per step) or on the first step (a tool that starts inside). Otherwise the pass
+  // over the triangles is a bounding-box test each.
+  const bool search_inside = model.closed_surface && (s.contact_vertex_count > 0 || s.time == 0);
+  s.tool_force -= s.carried_on_tool;  // replaced below by the corrected force
+  s.carried_on_tool.setZero();
+  s.contact_vertex_count = 0;
+  s.contact_force = 0;
+  s.contact_depth = 0;
+  s.contacts = 0;
+  if (r <= 0 || kc <= 0 || net.triangles.empty()) return;
+  const Vec3 c = tool.tip;
+  // Triangles within r of the centre (the deepest kept when there are more than fit), and the
+  // nearest triangle overall when the centre may be inside.
+  struct Hit {
+    int tri;
+    double dist;
+    Vec3 w, p;
+  };
+  std::array<Hit, SpringState::kMaxContactTriangles> hits;
+  int nhits = 0;
+  int nearest = -1;
+  double nearest_d2 = std::numeric_limits<double>::infinity(), nearest_cos = 0;
+  Vec3 nearest_w = Vec3::Zero(), nearest_p = Vec3::Zero();
+  for (size_t t = 0; t < net.triangles.size(); ++t) {
+    const auto& T = net.triangles[t];
+    const Vec3 a = s.x.row(T[0]).transpose(), b = s.x.row(T[1]).transpose(), q = s.x.row(T[2]).transpose();
+    // Bounding-box distance first: most triangles are far.
+    const Vec3 lo = a.cwiseMin(b).cwiseMin(q), hi = a.cwiseMax(b).cwiseMax(q);
+    const double box_d2 = (c.cwiseMax(lo).cwiseMin(hi) - c).squaredNorm();
+    if (box_d2 >= r * r && (!search_inside || box_d2 > nearest_d2)) continue;
+    Vec3 w;
+    const Vec3 p = closest_on_triangle(c, a, b, q, w);
+    const double d2 = (c - p).squaredNorm();
+    if (model.closed_surface) {
+      // Nearest triangle; at a shared edge or corner (equal distances), the one whose plane the
+      // centre is most clearly in front of or behind decides the side (its |cos| is largest).
+      const Vec3 nf = (b - a).cross(q - a);
+      const double len = nf.norm() * std::sqrt(d2);
+      const double cosine = len > 0 ? (c - p).dot(nf) / len : 0.0;
+      const bool tie = std::abs(d2 - nearest_d2) <= 1e-12 * std::max(d2, 1e-30);
+      if (d2 < nearest_d2 && !tie) {
+        nearest = static_cast<int>(t); nearest_d2 = d2; nearest_cos = cosine; nearest_w = w; nearest_p = p;
+      } else if (tie && std::abs(cosine) > std::abs(nearest_cos)) {
+        nearest = static_cast<int>(t); nearest_cos = cosine; nearest_w = w; nearest_p = p;
+      }
+    }
+    if (d2 >= r * r) continue;
+    const Hit hit{static_cast<int>(t), std::sqrt(d2), w, p};
+    if (nhits < SpringState::kMaxContactTriangles) {
+      hits[static_cast<size_t>(nhits++)] = hit;
+    } else {
+      int far = 0;
+      for (int k = 1; k < nhits; ++k) if (hits[static_cast<size_t>(k)].dist > hits[static_cast<size_t>(far)].dist) far = k;
+      if (hit.dist < hits[static_cast<size_t>(far)].dist) hits[static_cast<size_t>(far)] = hit;
+    }
+  }
+  const bool inside = model.closed_surface && nearest >= 0 && nearest_cos < 0 &&
+                      (search_inside || nearest_d2 < r * r);
+  // Contact vertices and their direction sums g_i (up to kMaxContactVertices).
+  std::array<Vec3, SpringState::kMaxContactVertices> g;
+  auto add = [&](int vertex, const Vec3& gi) {
+    for (int k = 0; k < s.contact_vertex_count; ++k)
+      if (s.contact_vertex[static_cast<size_t>(k)] == vertex) { g[static_cast<size_t>(k)] += gi; return; }
+    if (s.contact_vertex_count == SpringState::kMaxContactVertices) return;
+    s.contact_vertex[static_cast<size_t>(s.contact_vertex_count)] = vertex;
+    g[static_cast<size_t>(s.contact_vertex_count++)] = gi;
+  };
+  double depth = 0;
+  if (inside) {
+    const auto& T = net.triangles[static_cast<size_t>(nearest)];
+    const Vec3 a = s.x.row(T[0]).transpose(), b = s.x.row(T[1]).transpose(), q = s.x.row(T[2]).transpose();
+    const Vec3 n = (b - a).cross(q - a).normalized();  // outward
+    depth = r + std::sqrt(nearest_d2);
+    for (int k = 0; k < 3; ++k) add(T[static_cast<size_t>(k)], nearest_w[k] * n);
+    s.contacts = 1;
+  } else {
+    double sum = 0;
+    int used = 0;
+    for (int k = 0; k < nhits; ++k) {
+      const Hit& hit = hits[static_cast<size_t>(k)];
+      if (!(hit.dist > 1e-12 * r)) continue;  // the centre on the surface: no direction (rare; next tick)
+      if (model.closed_surface) {  // only triangles the tool is in front of (not the back of a thin part)
+        const auto& T = net.triangles[static_cast<size_t>(hit.tri)];
+        const Vec3 nf = (s.x.row(T[1]) - s.x.row(T[0])).transpose().cross((s.x.row(T[2]) - s.x.row(T[0])).transpose());
+        if ((c - hit.p).dot(nf) < 0) continue;
+      }
+      sum += r - hit.dist;
+      depth = std::max(depth, r - hit.dist);
+      hits[static_cast<size_t>(used++)] = hit;
+    }
+    // Weights φ_t scaled so that Σ ω_t n_t is a unit vector: the tool feels exactly F along it.
+    Vec3 resultant = Vec3::Zero();
+    for (int k = 0; k < used; ++k)
+      resultant += (r - hits[static_cast<size_t>(k)].dist) / hits[static_cast<size_t>(k)].dist *
+                   (c - hits[static_cast<size_t>(k)].p);
+    sum = resultant.norm();
+    if (sum > 0)
+      for (int k = 0; k < used; ++k) {
+        const Hit& hit = hits[static_cast<size_t>(k)];
+        const Vec3 n = (c - hit.p) / hit.dist;
+        const double weight = (r - hit.dist) / sum;
+        const auto& T = net.triangles[static_cast<size_t>(hit.tri)];
+        for (int q = 0; q < 3; ++q)
+          if (hit.w[q] > 0) add(T[static_cast<size_t>(q)], weight * hit.w[q] * n);
+      }
+    s.contacts = used;
+  }
+  if (!(depth > 0) || s.contact_vertex_count == 0) {
+    s.contact_vertex_count = 0;
+    s.contacts = 0;
+    return;
+  }
+  double compliance = 0;
+  for (int k = 0; k < s.contact_vertex_count; ++k)
+    compliance += g[static_cast<size_t>(k)].squaredNorm() *
+                  model.contact_compliance[static_cast<size_t>(s.contact_vertex[static_cast<size_t>(k)])];
+  // The normal damper (contact_damping) on the approach speed of the tool to the contact vertices
+  // along the force's direction: explicit, so small (it is zero at rest).
+  Vec3 surface_v = Vec3::Zero(), direction = Vec3::Zero();
+  for (int k = 0; k < s.contact_vertex_count; ++k) {
+    const int i = s.contact_vertex[static_cast<size_t>(k)];
+    direction += g[static_cast<size_t>(k)];
+    surface_v += g[static_cast<size_t>(k)].norm() * s.v.row(i).transpose();
+  }
+  const double gsum = direction.norm();
+  const double approach = gsum > 0 ? (surface_v / gsum - tool.velocity).dot(direction / gsum) : 0.0;
+  const double kh2c = kc * h * h * compliance;
+  const double f_new = std::max(
+      0.0, (kc * (depth + h * h * compliance * f_prev) + model.options.contact_damping * approach) / (1 + kh2c));
+  const double df = f_new - f_prev;
+  Vec3 total = Vec3::Zero();
+  for (int k = 0; k < s.contact_vertex_count; ++k) {
+    const int i = s.contact_vertex[static_cast<size_t>(k)];
+    const Vec3 gi = g[static_cast<size_t>(k)];
+    const Vec3 dv = -h * df * model.contact_compliance[static_cast<size_t>(i)] * gi;
+    s.v.row(i) += dv.transpose();
+    s.x.row(i) += h * dv.transpose();
+    s.contact_load[static_cast<size_t>(k)] = -f_new * gi;
+    total += f_new * gi;
+  }
+  s.contact_force = f_new;
+  s.contact_depth = depth;
+  s.tool_force += total;  // the tool feels F⁺, the corrected force, now
+}
+
 // All forces at the start of the step into s.force (external ones also left in s.work). With
 // stiffness_term (the predictor's path, generic springs) s.rhs also receives −h K_L v.
 void all_forces(const SpringModel& model, SpringState& s, const ToolState* tool, bool stiffness_term = false) noexcept {
@@ -603,6 +816,105 @@ void all_forces(const SpringModel& model, SpringState& s, const ToolState* tool,
   }
   else add_spring_forces(model.network, s.x, s.v, s.force);
   s.anchor_force = anchor_load(model, s.force);
+}
+
+// out += sign · (h² K y + h C w) with the exact Jacobian at x: per spring K_e = k [uuᵀ + max(0, 1 − L/l)
+// (I − uuᵀ)] (the exact solver's, positive semi-definite) and C_e = c uuᵀ, and per tetrahedron the
+// volume term's (κ/V0) ∇V ∇Vᵀ. Anchored vertices' rows are left for the caller to zero.
+void add_exact_jacobian(const SpringModel& model, const RowMat3d& x, const RowMat3d& y, const RowMat3d& w,
+                        RowMat3d& out, double sign) noexcept {
+  const SpringNetwork& net = model.network;
+  const double h = model.options.dt;
+  for (size_t e = 0; e < net.springs.size(); ++e) {
+    const int a = net.springs[e][0], b = net.springs[e][1];
+    const Vec3 d = (x.row(b) - x.row(a)).transpose();
+    const double l = d.norm();
+    if (!(l > 0)) continue;
+    const Vec3 u = d / l;
+    const Vec3 dy = (y.row(a) - y.row(b)).transpose(), dw = (w.row(a) - w.row(b)).transpose();
+    const double lateral = std::max(0.0, 1.0 - net.rest_length[e] / l);
+    const double uy = u.dot(dy);
+    const Vec3 t = sign * (h * h * net.stiffness[e] * (uy * u + lateral * (dy - uy * u)) + h * net.damping[e] * u.dot(dw) * u);
+    out.row(a) += t.transpose();
+    out.row(b) -= t.transpose();
+  }
+  if (!model.volume_term) return;
+  for (size_t k = 0; k < net.tets.size(); ++k) {
+    const auto& q = net.tets[k];
+    const auto g = spring::tet_volume_gradients(x.row(q[0]).transpose(), x.row(q[1]).transpose(),
+                                                x.row(q[2]).transpose(), x.row(q[3]).transpose());
+    double gy = 0;
+    for (int c = 0; c < 4; ++c) gy += g[static_cast<size_t>(c)].dot(y.row(q[static_cast<size_t>(c)]).transpose());
+    const double wgt = sign * h * h * net.volume_modulus / net.rest_volume[k] * gy;
+    for (int c = 0; c < 4; ++c) out.row(q[static_cast<size_t>(c)]) += wgt * g[static_cast<size_t>(c)].transpose();
+  }
+}
+
+// out += sign · (h² K_p y + h C_L w): the predictor's Laplacians (weights predictor_stiffness, damping).
+void add_predictor_jacobian(const SpringModel& model, const RowMat3d& y, const RowMat3d& w, RowMat3d& out,
+                            double sign) noexcept {
+  const SpringNetwork& net = model.network;
+  const double h = model.options.dt;
+  for (size_t e = 0; e < net.springs.size(); ++e) {
+    const int a = net.springs[e][0], b = net.springs[e][1];
+    const Eigen::RowVector3d t = sign * (h * h * model.predictor_stiffness[e] * (y.row(a) - y.row(b)) +
+                                         h * net.damping[e] * (w.row(a) - w.row(b)));
+    out.row(a) += t;
+    out.row(b) -= t;
+  }
+}
+
+void solve_predictor(const SpringModel& model, SpringState& s, const RowMat3d& b, RowMat3d& x) noexcept {
+  if (model.predictor.kind == SpringSolver::desbrun)
+    spring::solve_dense(model.predictor, model.inverse_single, b, x, s.soa.data());
+  else if (model.supernodes.empty()) spring::solve_columns(model.predictor, b, x, s.work);
+  else spring::solve_supernodal(model.predictor, model.supernodes, b, x, s.soa.data());
+}
+
+// Backward Euler's damping on request (SpringModelOptions::exact_iterations): the predictor's Δv
+// solves (M + hγ + hC_L + h²K_p) Δv = h (f − h K_p v); the exact linearised backward Euler (one
+// Newton step of the exact solver) has the true C and K instead. Its residual at the predictor's
+// Δv is r = h² (K_p − K)(v + Δv) + h (C_L − C) Δv; preconditioned conjugate gradients (the
+// predictor's matrix as the preconditioner; both symmetric positive definite) solve for the
+// correction δ, A δ = r, a few iterations. Free vertices only (anchored rows zero).
+void refine_toward_exact(const SpringModel& model, SpringState& s) noexcept {
+  const int iterations = model.options.exact_iterations;
+  if (iterations <= 0 || s.cg_r.rows() != s.x.rows() || model.all_pairs) return;
+  const double h = model.options.dt, gamma = model.options.point_damping;
+  const Eigen::Index n = s.x.rows();
+  auto zero_anchors = [&](RowMat3d& m) {
+    for (int a : model.network.anchors) m.row(a).setZero();
+  };
+  auto dot = [](const RowMat3d& a, const RowMat3d& b) { return (a.array() * b.array()).sum(); };
+  s.cg_q = s.v + s.dv;
+  s.cg_r.setZero();
+  add_predictor_jacobian(model, s.cg_q, s.dv, s.cg_r, 1.0);
+  add_exact_jacobian(model, s.x, s.cg_q, s.dv, s.cg_r, -1.0);
+  zero_anchors(s.cg_r);
+  s.cg_d.setZero();
+  solve_predictor(model, s, s.cg_r, s.cg_z);
+  zero_anchors(s.cg_z);
+  s.cg_p = s.cg_z;
+  double rz = dot(s.cg_r, s.cg_z);
+  for (int it = 0; it < iterations && rz > 0; ++it) {
+    // q = A p: masses and point damping, then the exact Jacobian's parts.
+    for (Eigen::Index i = 0; i < n; ++i)
+      s.cg_q.row(i) = (model.network.mass[static_cast<size_t>(i)] + h * gamma) * s.cg_p.row(i);
+    add_exact_jacobian(model, s.x, s.cg_p, s.cg_p, s.cg_q, 1.0);
+    zero_anchors(s.cg_q);
+    const double pq = dot(s.cg_p, s.cg_q);
+    if (!(pq > 0)) break;
+    const double alpha = rz / pq;
+    s.cg_d += alpha * s.cg_p;
+    if (it + 1 == iterations) break;
+    s.cg_r -= alpha * s.cg_q;
+    solve_predictor(model, s, s.cg_r, s.cg_z);
+    zero_anchors(s.cg_z);
+    const double rz_next = dot(s.cg_r, s.cg_z);
+    s.cg_p = s.cg_z + (rz_next / rz) * s.cg_p;
+    rz = rz_next;
+  }
+  s.dv += s.cg_d;
 }
 
 // The doubles of SpringState::soa the fused sparse step takes: the padded spring pass, then the
@@ -664,6 +976,7 @@ void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState
   s.anchor_force = anchor;
   spring::solve_supernodal_permuted(model.predictor, model.supernodes, z4, z4 + 4 * n);
   spring::unpermute_rows(model.predictor, z4, s.dv.data());
+  refine_toward_exact(model, s);
   if (correct) correct_angular_momentum(model, s, ext_torque, s.dv);
   s.v += s.dv;
   for (int a : net.anchors) s.v.row(a).setZero();
@@ -714,6 +1027,7 @@ void step_predictor(const SpringModel& model, SpringState& s, const ToolState* t
     spring::solve_dense(model.predictor, model.inverse_single, s.rhs, s.dv, s.soa.data());
   else if (model.supernodes.empty()) spring::solve_columns(model.predictor, s.rhs, s.dv, s.work);
   else spring::solve_supernodal(model.predictor, model.supernodes, s.rhs, s.dv, s.soa.data());
+  refine_toward_exact(model, s);
   if (correct) correct_angular_momentum(model, s, ext_torque, s.dv);
   s.v += s.dv;
   for (int a : net.anchors) s.v.row(a).setZero();
@@ -776,6 +1090,24 @@ void step_exact(const SpringModel& model, SpringState& s, const ToolState* tool)
           }
         }
     }
+    // The volume term: its Gauss-Newton Jacobian (κ / V0) ∇V ∇Vᵀ (positive semi-definite; the
+    // residual is exact, so Newton still converges to the backward-Euler step).
+    for (size_t t = 0; t < net.tets.size() && net.volume_modulus > 0; ++t) {
+      const auto& q = net.tets[t];
+      const auto g = spring::tet_volume_gradients(xn.row(q[0]).transpose(), xn.row(q[1]).transpose(),
+                                                  xn.row(q[2]).transpose(), xn.row(q[3]).transpose());
+      const double w = h * h * net.volume_modulus / net.rest_volume[t];
+      for (int a = 0; a < 4; ++a) {
+        if (model.anchored[static_cast<size_t>(q[static_cast<size_t>(a)])]) continue;
+        for (int b = 0; b < 4; ++b) {
+          if (model.anchored[static_cast<size_t>(q[static_cast<size_t>(b)])]) continue;
+          const Eigen::Matrix3d B = w * g[static_cast<size_t>(a)] * g[static_cast<size_t>(b)].transpose();
+          for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c)
+              trip.emplace_back(3 * q[static_cast<size_t>(a)] + r, 3 * q[static_cast<size_t>(b)] + c, B(r, c));
+        }
+      }
+    }
     J.setFromTriplets(trip.begin(), trip.end());
     if (it == 0) solver.analyzePattern(J);
     solver.factorize(J);
@@ -807,6 +1139,15 @@ bool step(const SpringModel& model, SpringState& s, const ToolState* tool) noexc
   } else {
     step_predictor(model, s, tool);
   }
+  if (model.options.contact == SpringContact::surface) {
+    if (tool) {
+      surface_contact(model, s, *tool);
+    } else {
+      s.contact_vertex_count = 0;
+      s.contact_force = 0;
+      s.carried_on_tool.setZero();
+    }
+  }
   s.time += model.options.dt;
   if (finite_and_slow(model, s)) return true;
   const std::uint64_t resets = s.resets + 1;
@@ -827,6 +1168,10 @@ double elastic_energy(const SpringModel& model, const SpringState& s) noexcept {
   for (size_t k = 0; k < net.springs.size(); ++k) {
     const double l = (s.x.row(net.springs[k][0]) - s.x.row(net.springs[k][1])).norm();
     e += 0.5 * net.stiffness[k] * (l - net.rest_length[k]) * (l - net.rest_length[k]);
+  }
+  if (!net.tets.empty() && net.volume_modulus > 0) {
+    RowMat3d scratch = RowMat3d::Zero(s.x.rows(), 3);  // not on the tick
+    e += spring::add_volume_forces(net, s.x.data(), 3, scratch.data(), 3);
   }
   return e;
 }
@@ -884,13 +1229,14 @@ namespace {
 // x[stride i …], its velocity at v[stride i …], its sums at f and r the same way. The reference
 // pass on the (n x 3) arrays (stride 3) and the vectorised passes' last s mod 4 springs on the
 // padded layout (stride 8: v = x + 4, r = f + 4).
-void spring_loop(const SpringNetwork& net, double h, size_t e, size_t stride, const double* xd, const double* vd,
-                 double* fd, double* rd) noexcept {
+// KP: each spring's predictor weight (SpringModel::predictor_stiffness) for the −h K v term.
+void spring_loop(const SpringNetwork& net, const double* KP, double h, size_t e, size_t stride, const double* xd,
+                 const double* vd, double* fd, double* rd) noexcept {
   for (; e < net.springs.size(); ++e) {
     const size_t i = stride * static_cast<size_t>(net.springs[e][0]), j = stride * static_cast<size_t>(net.springs[e][1]);
     const double dx = xd[j] - xd[i], dy = xd[j + 1] - xd[i + 1], dz = xd[j + 2] - xd[i + 2];
     const double wx = vd[j] - vd[i], wy = vd[j + 1] - vd[i + 1], wz = vd[j + 2] - vd[i + 2];
-    const double kh = h * net.stiffness[e];
+    const double kh = h * KP[e];
     rd[i] += kh * wx; rd[i + 1] += kh * wy; rd[i + 2] += kh * wz;
     rd[j] -= kh * wx; rd[j + 1] -= kh * wy; rd[j + 2] -= kh * wz;
     const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
@@ -902,8 +1248,9 @@ void spring_loop(const SpringNetwork& net, double h, size_t e, size_t stride, co
     fd[j] -= g * dx; fd[j + 1] -= g * dy; fd[j + 2] -= g * dz;
   }
 }
-void spring_pass_tail(const SpringNetwork& net, double h, size_t e, const double* xv, double* fr) noexcept {
-  spring_loop(net, h, e, 8, xv, xv + 4, fr, fr + 4);
+void spring_pass_tail(const SpringNetwork& net, const double* KP, double h, size_t e, const double* xv,
+                      double* fr) noexcept {
+  spring_loop(net, KP, h, e, 8, xv, xv + 4, fr, fr + 4);
 }
 
 // (Σ a0, Σ a1, Σ a2, Σ a3): the four horizontal sums in one register.
@@ -919,8 +1266,8 @@ __attribute__((target("avx2,fma"), always_inline)) inline __m256d hsum4(__m256d 
 // and no lane is masked); fr the same for the springs' sums, f then r. The sums go to fr one vertex
 // at a time in spring order, so springs sharing a vertex in a group of four are summed like the
 // scalar loop's.
-__attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& net, double h, const double* xv,
-                                                           double* fr) noexcept {
+__attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& net, const double* KP, double h,
+                                                           const double* xv, double* fr) noexcept {
   const size_t s = net.springs.size();
   const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
   const __m256d hv = _mm256_set1_pd(h), zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
@@ -946,7 +1293,7 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
     __m256d g = _mm256_add_pd(_mm256_mul_pd(k, _mm256_sub_pd(l, _mm256_loadu_pd(L + e))),
                               _mm256_mul_pd(_mm256_loadu_pd(C + e), dvu));
     g = _mm256_and_pd(_mm256_mul_pd(g, inv_l), ok);
-    const __m256d kh = _mm256_mul_pd(hv, k);
+    const __m256d kh = _mm256_mul_pd(hv, _mm256_loadu_pd(KP + e));
     const __m256d gq[4] = {_mm256_permute4x64_pd(g, 0x00), _mm256_permute4x64_pd(g, 0x55),
                            _mm256_permute4x64_pd(g, 0xAA), _mm256_permute4x64_pd(g, 0xFF)};
     const __m256d kq[4] = {_mm256_permute4x64_pd(kh, 0x00), _mm256_permute4x64_pd(kh, 0x55),
@@ -960,7 +1307,7 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
       _mm256_store_pd(fr + b[q], _mm256_sub_pd(_mm256_load_pd(fr + b[q]), fd));
     }
   }
-  spring_pass_tail(net, h, e, xv, fr);
+  spring_pass_tail(net, KP, h, e, xv, fr);
 }
 
 #pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see all_pairs_avx512
@@ -973,8 +1320,8 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
 // Uniform: every spring has stiffness k0 and damping c0, so the pass reads no per-spring K and C
 // (16 of each spring's 32 bytes; the same values, so the same results bit for bit).
 template <bool Uniform>
-__attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(const SpringNetwork& net, double h,
-                                                                              const double* xv, double* fr,
+__attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(const SpringNetwork& net, const double* KP,
+                                                                              double h, const double* xv, double* fr,
                                                                               double k0 = 0, double c0 = 0) noexcept {
   const size_t s = net.springs.size();
   const double *K = net.stiffness.data(), *C = net.damping.data(), *L = net.rest_length.data();
@@ -1012,14 +1359,15 @@ __attribute__((target("avx512f,avx512vl,avx2,fma"))) void spring_pass_avx512(con
     __m256d g = _mm256_fnmadd_pd(_mm256_mul_pd(k, _mm256_loadu_pd(L + e)), r, k);
     g = _mm256_fmadd_pd(_mm256_mul_pd(damp, dwv), _mm256_mul_pd(r, r), g);
     g = _mm256_and_pd(g, ok);
-    const __m512d gk = _mm512_insertf64x4(_mm512_castpd256_pd512(g), _mm256_mul_pd(hv, k), 1);
+    const __m256d kp = Uniform ? k : _mm256_loadu_pd(KP + e);  // the predictor's weight (= k without a volume term)
+    const __m512d gk = _mm512_insertf64x4(_mm512_castpd256_pd512(g), _mm256_mul_pd(hv, kp), 1);
     for (int q = 0; q < 4; ++q) {
       const __m512d c = _mm512_mul_pd(_mm512_permutexvar_pd(pick[q], gk), dw[q]);  // (g d, kh w)
       _mm512_store_pd(fr + a[q], _mm512_add_pd(_mm512_load_pd(fr + a[q]), c));
       _mm512_store_pd(fr + b[q], _mm512_sub_pd(_mm512_load_pd(fr + b[q]), c));
     }
   }
-  spring_pass_tail(net, h, e, xv, fr);
+  spring_pass_tail(net, KP, h, e, xv, fr);
 }
 
 #pragma GCC diagnostic pop
@@ -1040,6 +1388,79 @@ __attribute__((target("avx2"))) void pack_padded(size_t n, const double* xd, con
 
 }  // namespace
 
+double add_volume_forces(const SpringNetwork& net, const double* x, size_t stride, double* f,
+                         size_t fstride) noexcept {
+  const double kappa = net.volume_modulus;
+  double energy = 0;
+  const size_t T = net.tets.size();
+  for (size_t t = 0; t < T; ++t) {
+    const auto& q = net.tets[t];
+    const double* p0 = x + stride * static_cast<size_t>(q[0]);
+    const double* p1 = x + stride * static_cast<size_t>(q[1]);
+    const double* p2 = x + stride * static_cast<size_t>(q[2]);
+    const double* p3 = x + stride * static_cast<size_t>(q[3]);
+    const double ax = p1[0] - p0[0], ay = p1[1] - p0[1], az = p1[2] - p0[2];
+    const double bx = p2[0] - p0[0], by = p2[1] - p0[1], bz = p2[2] - p0[2];
+    const double cx = p3[0] - p0[0], cy = p3[1] - p0[1], cz = p3[2] - p0[2];
+    // 6 ∇V at corners 1, 2, 3: b × c, c × a, a × b.
+    const double g1x = by * cz - bz * cy, g1y = bz * cx - bx * cz, g1z = bx * cy - by * cx;
+    const double g2x = cy * az - cz * ay, g2y = cz * ax - cx * az, g2z = cx * ay - cy * ax;
+    const double g3x = ay * bz - az * by, g3y = az * bx - ax * bz, g3z = ax * by - ay * bx;
+    const double v6 = ax * g1x + ay * g1y + az * g1z;  // 6 V
+    const double v0 = net.rest_volume[t];
+    const double dv = v6 / 6 - v0;
+    energy += 0.5 * kappa * dv * dv / v0;
+    const double s = -kappa * dv / (6 * v0);  // −p / 6, the 1/6 of ∇V folded in
+    double* f0 = f + fstride * static_cast<size_t>(q[0]);
+    double* f1 = f + fstride * static_cast<size_t>(q[1]);
+    double* f2 = f + fstride * static_cast<size_t>(q[2]);
+    double* f3 = f + fstride * static_cast<size_t>(q[3]);
+    f1[0] += s * g1x; f1[1] += s * g1y; f1[2] += s * g1z;
+    f2[0] += s * g2x; f2[1] += s * g2y; f2[2] += s * g2z;
+    f3[0] += s * g3x; f3[1] += s * g3y; f3[2] += s * g3z;
+    f0[0] -= s * (g1x + g2x + g3x); f0[1] -= s * (g1y + g2y + g3y); f0[2] -= s * (g1z + g2z + g3z);
+  }
+  return energy;
+}
+
+namespace {
+
+// The volume term's forces on the padded layout (x at xv[8i …], sums at fr[8i …], x, y, z, 0), one
+// tetrahedron at a time with each corner one 256-bit vector: the same forces as add_volume_forces
+// (round-off level), cross products by lane rotations (u × v = (u ∘ v.yzx − u.yzx ∘ v).yzx).
+__attribute__((target("avx2,fma"))) void volume_pass_avx2(const SpringNetwork& net, const double* xv,
+                                                           double* fr) noexcept {
+  const double kappa = net.volume_modulus;
+  const size_t T = net.tets.size();
+  const __m256d k6 = _mm256_set1_pd(kappa / 6);
+#define PALPATE_YZX(u) _mm256_permute4x64_pd(u, 0xC9)  // (y, z, x, w)
+  for (size_t t = 0; t < T; ++t) {
+    const auto& q = net.tets[t];
+    const size_t i0 = 8 * static_cast<size_t>(q[0]), i1 = 8 * static_cast<size_t>(q[1]),
+                 i2 = 8 * static_cast<size_t>(q[2]), i3 = 8 * static_cast<size_t>(q[3]);
+    const __m256d p0 = _mm256_load_pd(xv + i0);
+    const __m256d a = _mm256_sub_pd(_mm256_load_pd(xv + i1), p0);
+    const __m256d b = _mm256_sub_pd(_mm256_load_pd(xv + i2), p0);
+    const __m256d c = _mm256_sub_pd(_mm256_load_pd(xv + i3), p0);
+    const __m256d ar = PALPATE_YZX(a), br = PALPATE_YZX(b), cr = PALPATE_YZX(c);
+    const __m256d g1 = PALPATE_YZX(_mm256_fmsub_pd(b, cr, _mm256_mul_pd(br, c)));  // 6 ∇V at corner 1: b × c
+    const __m256d g2 = PALPATE_YZX(_mm256_fmsub_pd(c, ar, _mm256_mul_pd(cr, a)));  // c × a
+    const __m256d g3 = PALPATE_YZX(_mm256_fmsub_pd(a, br, _mm256_mul_pd(ar, b)));  // a × b
+    const __m256d d = _mm256_mul_pd(a, g1);  // lane 3 is 0
+    const __m128d h2 = _mm_add_pd(_mm256_castpd256_pd128(d), _mm256_extractf128_pd(d, 1));
+    const double v6 = _mm_cvtsd_f64(_mm_add_sd(h2, _mm_unpackhi_pd(h2, h2)));
+    // −p / 6 = −κ (V − V0) / (6 V0) = κ/6 − κ · 6V / (36 V0)
+    const __m256d sv = _mm256_fnmadd_pd(_mm256_set1_pd(kappa / (36 * net.rest_volume[t])), _mm256_set1_pd(v6), k6);
+    _mm256_store_pd(fr + i1, _mm256_fmadd_pd(sv, g1, _mm256_load_pd(fr + i1)));
+    _mm256_store_pd(fr + i2, _mm256_fmadd_pd(sv, g2, _mm256_load_pd(fr + i2)));
+    _mm256_store_pd(fr + i3, _mm256_fmadd_pd(sv, g3, _mm256_load_pd(fr + i3)));
+    _mm256_store_pd(fr + i0, _mm256_fnmadd_pd(sv, _mm256_add_pd(_mm256_add_pd(g1, g2), g3), _mm256_load_pd(fr + i0)));
+  }
+#undef PALPATE_YZX
+}
+
+}  // namespace
+
 bool spring_pass_padded_available(const SpringModel& model) noexcept {
   return has_avx2_fma() && !model.network.springs.empty();
 }
@@ -1051,12 +1472,17 @@ double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const Ro
   double* p = align64(scratch);  // at most 7 doubles in
   double *xv = p, *fr = p + 8 * n;
   pack_padded(n, x.data(), v.data(), xv, fr);
-  const bool uniform = model.uniform_stiffness > 0 && model.uniform_damping;
+  const bool uniform = model.uniform_stiffness > 0 && model.uniform_damping && !model.volume_term;
+  const double* KP = model.predictor_stiffness.data();
   if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512()) {
-    if (uniform) spring_pass_avx512<true>(net, model.options.dt, xv, fr, model.uniform_stiffness, net.damping[0]);
-    else spring_pass_avx512<false>(net, model.options.dt, xv, fr);
+    if (uniform) spring_pass_avx512<true>(net, KP, model.options.dt, xv, fr, model.uniform_stiffness, net.damping[0]);
+    else spring_pass_avx512<false>(net, KP, model.options.dt, xv, fr);
   } else {
-    spring_pass_avx2(net, model.options.dt, xv, fr);
+    spring_pass_avx2(net, KP, model.options.dt, xv, fr);
+  }
+  if (model.volume_term) {
+    if (kernel == SpringKernel::scalar) add_volume_forces(net, xv, 8, fr, 8);
+    else volume_pass_avx2(net, xv, fr);  // spring_pass_padded needs AVX2 + FMA anyway
   }
   return p;
 }
@@ -1066,7 +1492,9 @@ void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat
                                           SpringKernel kernel) noexcept {
   const size_t n = model.network.size();
   if (!vectorised || kernel == SpringKernel::scalar || !spring_pass_padded_available(model) || scratch == nullptr) {
-    spring_loop(model.network, model.options.dt, 0, 3, x.data(), v.data(), f.data(), r.data());
+    spring_loop(model.network, model.predictor_stiffness.data(), model.options.dt, 0, 3, x.data(), v.data(), f.data(),
+                r.data());
+    if (model.volume_term) add_volume_forces(model.network, x.data(), 3, f.data(), 3);
     return;
   }
   const double* fr = spring_pass_padded(model, x, v, scratch, kernel) + 8 * n;

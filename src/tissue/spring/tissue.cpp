@@ -163,9 +163,13 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
   o.gravity_acceleration = m.gravity_acceleration;
   o.angular_momentum_correction = m.angular_momentum_correction;
   o.contact_stiffness = m.contact_stiffness;
+  if (m.contact == "surface") o.contact = SpringContact::surface;
+  else if (m.contact == "vertices") o.contact = SpringContact::vertices;
+  else return Error{where + ": material.contact '" + m.contact + "' is not one of surface|vertices"};
   o.grasp_radius = m.grasp_radius;
   o.grasp_stiffness = m.grasp_stiffness;
   o.single_precision = m.single_precision;
+  o.exact_iterations = m.exact_iterations;
   const std::filesystem::path base = scene.file.has_parent_path() ? scene.file.parent_path() : std::filesystem::path{};
   if (!m.predictor.empty()) {
     const std::filesystem::path p = m.predictor;
