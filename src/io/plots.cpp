@@ -76,15 +76,15 @@ Status plot_run(const std::filesystem::path& dir, const std::string& title, cons
   int n = 1;
   for (size_t i = 0; i < events.size();) {
     const double t = events[i].time;
-    std::string text;
+    std::string names;
     bool flashback = false;
     size_t j = i;
     for (; j < events.size() && events[j].time - t <= 0.01 * span; ++j) {
-      text += (j > i ? ", " : "") + events[j].kind + " " + events[j].tissue;
+      names += (j > i ? ", " : "") + events[j].kind + " " + events[j].tissue;
       flashback = flashback || events[j].kind == "flashback";
     }
     i = j;
-    const std::string label = quote(text);
+    const std::string label = quote(names);
     const char* colour = flashback ? "#208040" : "#c03030";
     marks_t += fmt::format(
         "set arrow {} from {:.6f}, graph 0 to {:.6f}, graph 1 nohead dt 2 lc rgb '{}'\n"
