@@ -143,6 +143,8 @@ Result<std::unique_ptr<Device>> open_openhaptics(const std::string& library, con
 
 // The device a scene asks for (scripted, replay or openhaptics).
 Result<std::unique_ptr<Device>> make_device(const SceneDef& scene);
+// The limits a DeviceDef sets (max force and rate, nominal stiffness and damping).
+DeviceLimits device_limits(const DeviceDef& def);
 // The device a DeviceDef asks for: `tool_axis` (unit) is the tool's direction at identity, which a
 // scripted waypoint's `direction` turns (the needle's tool.axis, the probe's probe.axis); `where`
 // (the scene file) and `key` ("device", "probe.device") name it in messages.

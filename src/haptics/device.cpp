@@ -14,13 +14,18 @@ Result<std::unique_ptr<Device>> make_device(const SceneDef& scene) {
                      scene.file.empty() ? std::string("scene") : scene.file.string());
 }
 
-Result<std::unique_ptr<Device>> make_device(const DeviceDef& d, const Vec3& tool_axis,
-                                            const std::string& where, const std::string& key) {
+DeviceLimits device_limits(const DeviceDef& d) {
   DeviceLimits limits;
   limits.max_force = d.max_force;
   limits.max_force_rate = d.max_force_rate;
   limits.stiffness = d.stiffness;
   limits.damping = d.damping;
+  return limits;
+}
+
+Result<std::unique_ptr<Device>> make_device(const DeviceDef& d, const Vec3& tool_axis,
+                                            const std::string& where, const std::string& key) {
+  const DeviceLimits limits = device_limits(d);
   if (d.kind == "scripted") {
     std::vector<Waypoint> points = d.waypoints;
     if (!d.trajectory.empty()) {

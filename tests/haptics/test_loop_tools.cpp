@@ -4,6 +4,7 @@
 #include <palpate/haptics.h>
 
 #include "haptics/doubles.h"
+#include "haptics/fake_hd_client.h"
 
 #include <gtest/gtest.h>
 
@@ -192,20 +193,7 @@ TEST(LoopTools, BadToolsAreRefusedWithWhatIsWrong) {
 }
 
 // --- one scripted device and the fake libHD (tests/fake_hd) in the other hand.
-namespace {
-struct FakeHd {
-  void* lib = ::dlopen(PALPATE_FAKE_HD, RTLD_NOW);
-  void (*reset)(int) = nullptr;
-  void (*set_poses)(const double*, int) = nullptr;
-  int (*forces)(double*, int) = nullptr;
-  FakeHd() {
-    reset = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_reset"));
-    set_poses = reinterpret_cast<void (*)(const double*, int)>(::dlsym(lib, "fake_hd_set_poses"));
-    forces = reinterpret_cast<int (*)(double*, int)>(::dlsym(lib, "fake_hd_forces"));
-  }
-  ~FakeHd() { ::dlclose(lib); }
-};
-}  // namespace
+using palpate::test::FakeHd;
 
 TEST(LoopTools, OneScriptedAndOneOpenHapticsDeviceInOneRealtimeRun) {
   FakeHd hd;

@@ -573,12 +573,7 @@ bool Viewer::probe_input(double x, double y, double dx, double dy, int width, in
 
 void Viewer::start_probe() {
   const ProbeDef& p = *scene_.probe;
-  DeviceLimits limits;
-  limits.max_force = p.device.max_force;
-  limits.max_force_rate = p.device.max_force_rate;
-  limits.stiffness = p.device.stiffness;
-  limits.damping = p.device.damping;
-  probe_device_ = std::make_unique<VirtualDevice>(limits);
+  probe_device_ = std::make_unique<VirtualDevice>(device_limits(p.device));
   // It starts where its scripted device would (its first waypoint), or on the skin at the origin.
   Vec3 start = Vec3::Zero();
   Quat facing = Quat::Identity();
@@ -900,12 +895,7 @@ int Viewer::run() {
   scene_size_ = camera_.distance;
   arrow_metres_per_newton_ = static_cast<float>(0.25 * scene_size_);  // m per √N
 
-  DeviceLimits limits;
-  limits.max_force = scene_.device.max_force;
-  limits.max_force_rate = scene_.device.max_force_rate;
-  limits.stiffness = scene_.device.stiffness;
-  limits.damping = scene_.device.damping;
-  device_ = std::make_unique<VirtualDevice>(limits);
+  device_ = std::make_unique<VirtualDevice>(device_limits(scene_.device));
   feeder_ = std::make_unique<PoseFeeder>(*device_, start_position(), options_.tool_speed);
   if (scene_.probe && scene_.anatomy) start_probe();
 

@@ -1,0 +1,51 @@
+// fake_hd_client.h — the tests' handle on the fake OpenHaptics library (tests/fake_hd): its poses,
+// call counts and every force its servo sent, through dlsym.
+#pragma once
+
+#include <palpate/core.h>
+
+#include <dlfcn.h>
+
+#include <algorithm>
+#include <vector>
+
+namespace palpate::test {
+
+struct FakeHd {
+  void* lib = ::dlopen(PALPATE_FAKE_HD, RTLD_NOW);
+  void (*reset)(int) = nullptr;
+  void (*set_poses)(const double*, int) = nullptr;
+  void (*set_rotation)(const double*) = nullptr;
+  int (*calls)(const char*) = nullptr;
+  int (*frame_errors)() = nullptr;
+  int (*enabled)(unsigned) = nullptr;
+  int (*forces)(double*, int) = nullptr;
+  void (*set_max_force)(double) = nullptr;
+  FakeHd() {
+    set_max_force = reinterpret_cast<void (*)(double)>(::dlsym(lib, "fake_hd_set_max_force"));
+    reset = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_reset"));
+    set_poses = reinterpret_cast<void (*)(const double*, int)>(::dlsym(lib, "fake_hd_set_poses"));
+    set_rotation = reinterpret_cast<void (*)(const double*)>(::dlsym(lib, "fake_hd_set_rotation"));
+    calls = reinterpret_cast<int (*)(const char*)>(::dlsym(lib, "fake_hd_calls"));
+    frame_errors = reinterpret_cast<int (*)()>(::dlsym(lib, "fake_hd_frame_errors"));
+    enabled = reinterpret_cast<int (*)(unsigned)>(::dlsym(lib, "fake_hd_enabled"));
+    forces = reinterpret_cast<int (*)(double*, int)>(::dlsym(lib, "fake_hd_forces"));
+  }
+  ~FakeHd() { ::dlclose(lib); }
+  Vec3 last_force() {
+    std::vector<double> f(3 * 100000);
+    const int n = forces(f.data(), 100000);
+    if (n == 0 || n > 100000) return Vec3::Constant(-1);
+    return Vec3(f[size_t(n - 1) * 3], f[size_t(n - 1) * 3 + 1], f[size_t(n - 1) * 3 + 2]);
+  }
+  // Every force the servo sent, in order.
+  std::vector<Vec3> all_forces() {
+    std::vector<double> f(3 * 200000);
+    const int n = std::min(forces(f.data(), 200000), 200000);
+    std::vector<Vec3> out;
+    for (int i = 0; i < n; ++i) out.emplace_back(f[size_t(i) * 3], f[size_t(i) * 3 + 1], f[size_t(i) * 3 + 2]);
+    return out;
+  }
+};
+
+}  // namespace palpate::test
