@@ -22,7 +22,12 @@ def src(path):
 V = [(x, y, z) for z in (0, 1) for y in (0, 1) for x in (0, 1)]
 quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
 F = [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
-T = [(1, 2, 7, 4), (0, 1, 2, 4), (3, 2, 1, 7), (5, 1, 4, 7), (6, 2, 7, 4)]
+T = [(1, 2, 4, 7), (0, 1, 2, 4), (3, 2, 1, 7), (5, 1, 4, 7), (6, 2, 7, 4)]
+def volume(t):
+    p = [V[i] for i in t]
+    u, v, w = ([p[k][j] - p[0][j] for j in range(3)] for k in (1, 2, 3))
+    return u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0])
+T = [t if volume(t) > 0 else (t[0], t[1], t[3], t[2]) for t in T]  # positively oriented
 g = lambda v: ' '.join(f'{x:g}' for x in v)
 def normal(t):
     a, b, c = (V[i] for i in t)
@@ -78,9 +83,7 @@ for name in sorted(os.listdir(os.path.join(R, 'data/scenes'))):
     if name.endswith('.yaml'):
         put('fuzz_scene', name, src('data/scenes/' + name))
 put('fuzz_trajectory_csv', 'trajectory.csv', src('tests/data/scenes/trajectory.csv'))
-put('fuzz_trajectory_csv', 'liver-probe-path-head.csv', b''.join(src('data/scenes/liver-probe-path.csv').splitlines(True)[:40]))
 put('fuzz_trajectory_csv', 'directions.csv', '# t, x, y, z, dx, dy, dz\n0,0,0.02,0,0,-1,0\n0.5,0,0.01,0\n1,0.001,0,0,0,-1,0.1\n')
-put('fuzz_recording_csv', 'recording.csv', src('tests/data/scenes/recording.csv'))
 put('fuzz_recording_csv', 'run.csv',
     't,tool_x,tool_y,tool_z,force_x,force_y,force_z,force_N,depth,tick,tool_qw,tool_qx,tool_qy,tool_qz,buttons,events\n' +
     ''.join(f'{i/1000:g},0,{0.01 - i*1e-4:g},0,0,{i*0.01:g},0,{i*0.01:g},0,{i},1,0,0,0,{i % 2},\n' for i in range(8)))
