@@ -149,7 +149,11 @@ TEST(Cli, InterruptedRunWritesCompleteOutputs) {
     std::filesystem::remove_all(out);
     std::string cmd = "(";  // a subshell, so that its stderr is captured with it
     cmd += std::string(PALPATE_CLI) + " run -q " + c.flags + " --out " + out.string() + " " + scene.string();
-    cmd += std::string(" & pid=$!; sleep 2; kill -") + c.signal + " $pid; wait $pid)";
+    // Signalled a second after its first rows reach run.csv.part (not at a fixed time: on a loaded
+    // machine the scene's load can take longer than that).
+    const std::string part = (out / "run.csv.part").string();
+    cmd += " & pid=$!; for i in $(seq 300); do [ -s " + part + " ] && break; sleep 0.1; done; sleep 1; kill -" +
+           std::string(c.signal) + " $pid; wait $pid)";
     Ran r = palpate::test::shell_run(cmd);
     EXPECT_EQ(r.code, c.code) << c.flags << ": " << r.out;
     EXPECT_NE(r.out.find(std::string("interrupted (SIG") + c.signal + ")"), std::string::npos) << r.out;
