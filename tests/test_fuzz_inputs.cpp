@@ -152,6 +152,8 @@ TEST(FuzzInputs, EveryFindingIsRefusedClearly) {
       ASSERT_TRUE(error) << input << " loaded; expected an error saying '" << want << "'";
       EXPECT_NE(error->find(want), std::string::npos) << input << ": '" << *error << "' does not say '" << want << "'";
     }
-    if (error) EXPECT_NE(error->find(where), std::string::npos) << input << ": '" << *error << "' does not name " << where;
+    if (error) {
+      EXPECT_NE(error->find(where), std::string::npos) << input << ": '" << *error << "' does not name " << where;
+    }
   }
 }
