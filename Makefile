@@ -5,7 +5,7 @@ CLI    := $(BUILD)/apps/palpate/palpate
 SCENE  ?= data/scenes/cvc.yaml
 DEMO_OUT ?= out/demo
 
-.PHONY: all deps configure build test demo bench format tidy clean
+.PHONY: all deps configure build test demo bench fuzz fuzz-build asan-test tsan-test format tidy clean
 
 all: build
 
@@ -26,6 +26,29 @@ test: build
 # A scene with an ultrasound probe (cvc.yaml) also gives its images: 13, one every 1.07 s of its run.
 demo: build
 	$(CLI) run $(SCENE) --out $(DEMO_OUT) --frames 3 $(if $(shell grep -qs '^probe:' $(SCENE) && echo y),--ultrasound 13)
+
+# Fuzzing (fuzz/README.md): every libFuzzer target for FUZZ_SECONDS each, one after the other, in
+# the fuzz preset's build (clang, ASan + UBSan); fails on any crash, sanitizer report, hang or leak.
+FUZZ_SECONDS ?= 300
+fuzz: fuzz-build
+	bash fuzz/run.sh build/fuzz $(FUZZ_SECONDS)
+
+fuzz-build: deps
+	test -f build/fuzz/CMakeCache.txt || cmake --preset fuzz
+	cmake --build --preset fuzz --target fuzz_targets
+
+# The whole suite under AddressSanitizer + UndefinedBehaviorSanitizer (clang: the fuzz preset's
+# build, which the fuzz targets share), and the threaded tests under ThreadSanitizer.
+TSAN_TESTS ?= ^(Loop|LoopTools|MultiRate|TripleBuffer|RecorderRing|Recorder|HapticOpenHaptics|HapticReplay|HapticVirtualDevice|Safety|Run|RunFrames|RunProbe|SnapshotTissue|ViewSnapshot)\.
+asan-test: deps
+	test -f build/fuzz/CMakeCache.txt || cmake --preset fuzz
+	cmake --build --preset fuzz
+	ctest --preset fuzz
+
+tsan-test: deps
+	test -f build/tsan/CMakeCache.txt || cmake --preset tsan
+	cmake --build --preset tsan --target palpate_tests
+	ctest --preset tsan -R '$(TSAN_TESTS)'
 
 bench: build
 	$(BUILD)/bench/palpate_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true

@@ -17,8 +17,10 @@ set(sanitize_flags)
 if(EMBED_SANITIZE)
   set(sanitize_flags -DCMAKE_CXX_FLAGS=-fsanitize=${EMBED_SANITIZE} -DCMAKE_EXE_LINKER_FLAGS=-fsanitize=${EMBED_SANITIZE})
 endif()
+# The user's compiler is palpate's: a sanitizer's runtime must be the one the library was built for.
 execute_process(COMMAND ${CMAKE_COMMAND} -S ${EMBED_SOURCE_DIR} -B ${WORK_DIR}/build
                 -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix -DCMAKE_BUILD_TYPE=Release ${sanitize_flags}
+                -DCMAKE_CXX_COMPILER=${EMBED_CXX_COMPILER}
                 RESULT_VARIABLE rc)
 if(rc)
   message(FATAL_ERROR "configuring examples/embed against the installed palpate failed")

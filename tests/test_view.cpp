@@ -27,7 +27,10 @@ bool have_xvfb() { return std::system("command -v xvfb-run >/dev/null 2>&1") == 
 // Under AddressSanitizer the viewer runs without LeakSanitizer: Mesa's GLX driver leaves a few
 // blocks behind that are reported from a module already unloaded at exit, so no suppression
 // (tests/lsan.supp) can name them. Every other leak check stays on.
-#if defined(__SANITIZE_ADDRESS__)
+#if !defined(__has_feature)
+#define __has_feature(x) 0  // gcc: __SANITIZE_ADDRESS__ says it; clang: __has_feature
+#endif
+#if defined(__SANITIZE_ADDRESS__) || __has_feature(address_sanitizer)
 constexpr const char* kViewLeakCheck = "ASAN_OPTIONS=detect_leaks=0 ";
 #else
 constexpr const char* kViewLeakCheck = "";

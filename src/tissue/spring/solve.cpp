@@ -548,7 +548,16 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
 // x86-64, chosen per call by a CPU check (a load of a global set by libgcc's constructor). Not
 // target_clones: its ifunc resolvers run during relocation, before a sanitizer's runtime is up,
 // and crash ThreadSanitizer builds at start.
+#if defined(__clang__)
+// clang (14) knows no "x86-64-v3"/"-v4" in __builtin_cpu_supports, nor prefer-vector-width in a
+// target attribute: the levels' defining features instead (the fuzz preset builds with clang).
+bool has_x86_64_v3() noexcept {
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && __builtin_cpu_supports("bmi") &&
+         __builtin_cpu_supports("bmi2");  // every CPU with these has the rest (F16C, MOVBE, LZCNT)
+}
+#else
 bool has_x86_64_v3() noexcept { return __builtin_cpu_supports("x86-64-v3"); }
+#endif
 
 #define PALPATE_TWICE(name, params, body)                                   \
   __attribute__((target("arch=x86-64-v3"))) void name##_v3 params noexcept body \
@@ -556,8 +565,16 @@ bool has_x86_64_v3() noexcept { return __builtin_cpu_supports("x86-64-v3"); }
 
 // The sweeps a third time for AVX-512 (x86-64-v4): the wide blocks' dots eight at a time, their
 // axpys vectorised over 512 bits.
+#if defined(__clang__)
+#define PALPATE_V4 __attribute__((target("arch=x86-64-v4")))
+bool has_x86_64_v4() noexcept {
+  return has_x86_64_v3() && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+         __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512cd");
+}
+#else
 #define PALPATE_V4 __attribute__((target("arch=x86-64-v4,prefer-vector-width=512")))
 bool has_x86_64_v4() noexcept { return __builtin_cpu_supports("x86-64-v4"); }
+#endif
 PALPATE_V4 void sweeps_double_impl_v4(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g,
                                       size_t m) noexcept {
   sweeps<double, true>(sn, sn.values.data(), inv_diag, z4, g, m);
