@@ -9,20 +9,16 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
-#include <sys/resource.h>
 #include <unistd.h>
 
 namespace palpate {
 
-// Bytes this process may use: the machine's physical memory, or less where an address-space or
-// data-size limit (`ulimit -v`, `ulimit -d`) or the environment's PALPATE_MEMORY_LIMIT (bytes, e.g.
-// 8e9: a share of a machine that runs other work too) is lower. 0 when unknown.
+// Bytes this process may plan to use: the machine's physical memory, or less where the
+// environment's PALPATE_MEMORY_LIMIT (bytes, e.g. 8e9: a share of a machine that runs other work
+// too) says so. 0 when unknown. (An address-space limit, `ulimit -v`, is not read: what slips past
+// these estimates is caught as std::bad_alloc by the command, and tested so.)
 inline double usable_memory_bytes() noexcept {
   double m = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGE_SIZE));
-  for (int which : {RLIMIT_AS, RLIMIT_DATA}) {
-    rlimit r{};
-    if (::getrlimit(which, &r) == 0 && r.rlim_cur != RLIM_INFINITY) m = std::min(m, double(r.rlim_cur));
-  }
   if (const char* env = std::getenv("PALPATE_MEMORY_LIMIT")) {
     double v = 0;
     const char* end = env + std::strlen(env);

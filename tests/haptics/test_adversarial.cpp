@@ -21,6 +21,7 @@
 #include <limits>
 #include <memory>
 #include <new>
+#include <ostream>
 #include <random>
 #include <unistd.h>
 #include <string>
@@ -238,6 +239,9 @@ struct ModelCase {
   double rest_tolerance;  // m, largest distance of any point from its rest position 2 s after release
   double settle = 0;      // s the tissue is left alone before its rest is taken (a sheet sagging)
 };
+
+// Test names and failures show the case's name, not its bytes.
+void PrintTo(const ModelCase& mc, std::ostream* os) { *os << mc.name; }
 
 // A unique scratch directory per case (predictor files of the mass-spring models go there).
 fs::path scratch(const std::string& name) {
