@@ -27,6 +27,7 @@ struct SpringMaterialDef {
   std::string predictor_policy = "load_or_compute";  // load_or_compute | require_file
   bool single_precision = false;   // per-tick predictor (and uniform all-pairs forces) in float
   int exact_iterations = 0;        // conjugate-gradient steps toward exact backward Euler per tick
+  bool directional_correction = false;  // the right-hand side's −hKv with each spring's exact stiffness
 };
 
 std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*);
