@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <filesystem>
@@ -62,4 +63,44 @@ TEST(Plots, WholePngsOrNoneOnAFullDisk) {
   EXPECT_FALSE(fs::exists(dir / "force_time.png"));
   EXPECT_FALSE(fs::exists(dir / "force_depth.png"));
   for (const auto& e : fs::directory_iterator(dir)) EXPECT_NE(e.path().extension(), ".part") << e.path();
+}
+
+// Ordinary runs (up to 200,000 ticks) are plotted from every tick, exactly as given.
+TEST(Plots, BuilderKeepsEveryTickOfAnOrdinaryRun) {
+  const palpate::PlotSeries in = ramp_series(150000);
+  palpate::PlotSeriesBuilder b(in.time.size());
+  EXPECT_EQ(b.stride(), 1u);
+  for (size_t i = 0; i < in.time.size(); ++i) b.add(in.time[i], in.depth[i], in.force[i], in.axial[i]);
+  const palpate::PlotSeries out = b.finish();
+  EXPECT_EQ(out.time, in.time);
+  EXPECT_EQ(out.depth, in.depth);
+  EXPECT_EQ(out.force, in.force);
+  EXPECT_EQ(out.axial, in.axial);
+}
+
+// A long run (here 10⁷ ticks, an hour at 3.6e8 is the same) is held as a min/max envelope of at
+// most 200,000 rows: in time order, every block's smallest and largest |F| and axial force kept, so
+// the plot's extremes (a one-tick spike included) are the run's.
+TEST(Plots, BuilderHoldsALongRunAsAMinMaxEnvelope) {
+  constexpr std::uint64_t kTicks = 10000000;
+  palpate::PlotSeriesBuilder b(kTicks);
+  EXPECT_EQ(b.stride(), 200u);
+  double fmin = 1e300, fmax = -1e300, amin = 1e300, amax = -1e300;
+  for (std::uint64_t i = 0; i < kTicks; ++i) {
+    const double t = double(i) * 0.001;
+    double f = std::sin(t * 0.7) + 1.0 + (i == 4567891 ? 2.5 : 0.0);  // a one-tick spike
+    const double a = std::cos(t * 1.3) - (i == 7654321 ? 1.5 : 0.0);
+    fmin = std::min(fmin, f), fmax = std::max(fmax, f), amin = std::min(amin, a), amax = std::max(amax, a);
+    b.add(t, 1e-6 * double(i % 1000), f, a);
+  }
+  const palpate::PlotSeries out = b.finish();
+  EXPECT_LE(out.time.size(), palpate::PlotSeriesBuilder::kMaxRows);
+  EXPECT_GE(out.time.size(), 2 * kTicks / 200);
+  EXPECT_TRUE(std::is_sorted(out.time.begin(), out.time.end()));
+  EXPECT_EQ(*std::min_element(out.force.begin(), out.force.end()), fmin);
+  EXPECT_EQ(*std::max_element(out.force.begin(), out.force.end()), fmax);
+  EXPECT_EQ(*std::min_element(out.axial.begin(), out.axial.end()), amin);
+  EXPECT_EQ(*std::max_element(out.axial.begin(), out.axial.end()), amax);
+  EXPECT_EQ(out.time.front(), 0.0);
+  EXPECT_NEAR(out.time.back(), double(kTicks - 1) * 0.001, 0.2);
 }

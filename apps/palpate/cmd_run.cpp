@@ -100,8 +100,8 @@ int run_command(const RunArgs& a) {
   const auto ticks = static_cast<std::uint64_t>(std::llround(scene->duration / scene->dt));
   if (!a.quiet && ticks >= 1'000'000) {
     const RunFootprint fp = run_footprint(ticks, 15 + 10 * scene->tissues.size());
-    fmt::print(stderr, "palpate run: {} ticks: run.csv about {:.2g} GB, about {:.2g} GB of memory for the "
-               "recorded series\n", ticks, fp.csv_bytes * 1e-9, fp.memory_bytes * 1e-9);
+    fmt::print(stderr, "palpate run: {} ticks: run.csv about {:.2g} GB, and {:.2g} GB for the plots' series "
+               "in a temporary file beside it while the run lasts\n", ticks, fp.csv_bytes * 1e-9, fp.series_bytes * 1e-9);
   }
   opt.interrupt = &g_interrupt;
   auto result = [&] {

@@ -13,6 +13,8 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
+#include <span>
 #include <memory>
 #include <string>
 #include <vector>
@@ -172,7 +174,14 @@ class HapticLoop {
   // tool_qz (the device's orientation, unit), one vector each; then per extra tool (named N)
   // N_x, N_y, N_z, N_qw, N_qx, N_qy, N_qz, N_force_x, N_force_y, N_force_z, N_force_N.
   Status finish_recording();
+  // The kept series whole, in memory (read back from the recorder's temporary file on first call:
+  // 96 bytes a tick for the needle's twelve; a long run's are large: for_each_series_row streams).
   const std::vector<std::vector<double>>& series() const;
+  // The same row by row (after finish_recording()), a block at a time from the file, holding none
+  // of the run in memory: `row` has one tick's values in series() order. An error when the file
+  // could not be written (disk full) or read, or nothing was recorded.
+  Status for_each_series_row(const std::function<void(std::span<const double> row)>& fn) const;
+  std::uint64_t series_rows() const;
   // Tissue events drained during the run, in order (after finish_recording()); the loop adds a
   // "flashback" event (tissue: the vein) on the tick the tip first enters a vein's lumen.
   struct Event {

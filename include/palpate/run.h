@@ -80,13 +80,15 @@ struct RunSummary {
 };
 
 // What a run of `ticks` ticks recording `columns` columns writes and holds (estimates): run.csv's
-// size on disk and the memory of the series kept for the plots and the summary. run_scene refuses
-// a run whose series would take more than half the machine's memory or whose run.csv would not fit
-// on the disk, naming the scene's duration; `palpate run` prints it before a long run.
+// size on disk, the plots' series streamed to a temporary file beside it, and the memory of the
+// plotted rows (bounded: a long run's are a min/max envelope). run_scene refuses a run whose
+// run.csv and series would not fit on the disk, naming the scene's duration; `palpate run` prints
+// the footprint before a long run.
 struct RunFootprint {
   std::uint64_t ticks = 0;
-  double csv_bytes = 0;     // bytes
-  double memory_bytes = 0;  // bytes
+  double csv_bytes = 0;     // bytes, run.csv
+  double series_bytes = 0;  // bytes, the plots' series in a temporary file beside it (gone at the end)
+  double memory_bytes = 0;  // bytes, the plotted rows held in memory (bounded, whatever the length)
 };
 RunFootprint run_footprint(std::uint64_t ticks, size_t columns);
 

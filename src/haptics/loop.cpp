@@ -24,7 +24,7 @@ enum Col : size_t {
   kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kTick,
   kQw, kQx, kQy, kQz, kButtons, kEvents, kFixedColumns
 };
-// The columns kept in memory for series(): t .. force_N, then tool_qw .. tool_qz, then each extra
+// The columns kept (in the recorder's temporary file) for series(): t .. force_N, then tool_qw .. tool_qz, then each extra
 // tool's pose and force (create()).
 
 // A double shared between threads, written by one.
@@ -122,7 +122,8 @@ struct HapticLoop::Impl {
   std::vector<double> row;               // one tick's record (sized once)
   std::vector<TissueEvent> event_buf;
   std::unique_ptr<Recorder> recorder;
-  std::vector<std::vector<double>> series;
+  std::vector<std::vector<double>> series;  // series(), read from the recorder's file on first use
+  bool series_loaded = false;
   std::vector<Event> events;
 
   // Haptic-thread state.
@@ -593,14 +594,28 @@ Status HapticLoop::finish_recording() {
   if (m.running.load()) return Error{"haptic loop: stop() before finish_recording()"};
   Status st = m.recorder->close();
   m.series.clear();
-  for (size_t i = 0; i < m.kept_series; ++i) m.series.push_back(m.recorder->kept(i));
+  m.series_loaded = false;
   m.events.clear();
   for (const RecorderEvent& e : m.recorder->events())
     m.events.push_back({e.time, e.kind, e.tissue, e.depth, e.force});
   return st;
 }
 
-const std::vector<std::vector<double>>& HapticLoop::series() const { return impl_->series; }
+const std::vector<std::vector<double>>& HapticLoop::series() const {
+  Impl& m = *impl_;
+  if (!m.series_loaded && m.recorder) {
+    m.series_loaded = true;
+    for (size_t i = 0; i < m.kept_series; ++i) m.series.push_back(m.recorder->kept(i));
+  }
+  return m.series;
+}
+
+Status HapticLoop::for_each_series_row(const std::function<void(std::span<const double> row)>& fn) const {
+  if (!impl_->recorder) return Error{"haptic loop: no recording, so no series"};
+  return impl_->recorder->for_each_kept(fn);
+}
+
+std::uint64_t HapticLoop::series_rows() const { return impl_->recorder ? impl_->recorder->kept_rows() : 0; }
 const std::vector<HapticLoop::Event>& HapticLoop::events() const { return impl_->events; }
 const std::vector<std::string>& HapticLoop::columns() const { return impl_->columns; }
 

@@ -93,6 +93,10 @@ constexpr double kFamilyMaxForce = 3.3;  // N
 // The HD scheduler's servo rate when the application does not set one (hdSetSchedulerRate; palpate
 // never does): 1000 Hz, so one servo frame is 1 ms.
 constexpr double kServoFrame = 1e-3;  // s
+// A pose older than this is not the device's: its servo has stopped (the library blocked inside a
+// call, the device stopped answering). read() fails then, a `device_failed` fault: the loop's force
+// heads to zero on that tick. 20 servo frames: far above a loaded machine's scheduling jitter.
+constexpr std::int64_t kStalePose = 20'000'000;  // ns
 
 class OpenHapticsDevice final : public Device {
  public:
@@ -118,6 +122,7 @@ class OpenHapticsDevice final : public Device {
   OpenHapticsDevice& operator=(const OpenHapticsDevice&) = delete;
 
   Status start() {
+    frame_ns_.store(monotonic_ns(), std::memory_order_relaxed);  // the first frame's grace
     api_.hdEnable(HD_FORCE_OUTPUT);
     handle_ = api_.hdScheduleAsynchronous(&OpenHapticsDevice::servo, this, HD_DEFAULT_SCHEDULER_PRIORITY);
     api_.hdStartScheduler();
@@ -137,6 +142,8 @@ class OpenHapticsDevice final : public Device {
     pose_.update();
     out = pose_.read();
     out.time = t;
+    // A pose the servo has not refreshed for kStalePose (it stopped answering): not a pose.
+    if (monotonic_ns() - frame_ns_.load(std::memory_order_relaxed) > kStalePose) return false;
     return !failed_.load(std::memory_order_relaxed);
   }
 
@@ -195,6 +202,7 @@ class OpenHapticsDevice final : public Device {
     s.orientation = Quat(r).normalized();
     s.buttons = static_cast<std::uint32_t>(buttons);
     self.pose_.publish();
+    self.frame_ns_.store(monotonic_ns(), std::memory_order_relaxed);
     return self.stopping_.load(std::memory_order_relaxed) ? HD_CALLBACK_DONE : HD_CALLBACK_CONTINUE;
   }
 
@@ -231,6 +239,7 @@ class OpenHapticsDevice final : public Device {
   TripleBuffer<DeviceState> pose_;  // servo → haptic thread
   TripleBuffer<TimedForce> force_;  // haptic thread → servo
   std::atomic<bool> failed_{false}, stopping_{false};
+  std::atomic<std::int64_t> frame_ns_{0};  // monotonic ns of the servo's last frame
 };
 
 }  // namespace

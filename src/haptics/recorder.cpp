@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -42,13 +44,21 @@ Result<std::unique_ptr<Recorder>> Recorder::open(const std::filesystem::path& cs
   if (!r->write_out(header)) return Error{r->part_.string() + ": write failed (disk full?)"};
   r->rows_ = std::make_unique<SpscRing<double>>(r->options_.capacity_rows, r->names_.size());
   r->event_ring_ = std::make_unique<SpscRing<RecorderEvent>>(1024, 1);
-  r->kept_.resize(r->options_.keep_columns.size());
+  if (!r->options_.keep_columns.empty()) {
+    // Unlinked at once: the file is gone when the process ends, however it ends.
+    const fs::path kept = r->part_.string() + ".series";
+    r->kept_fd_ = ::open(kept.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (r->kept_fd_ < 0) return Error{kept.string() + ": cannot open for writing: " + std::strerror(errno)};
+    ::unlink(kept.c_str());
+    r->kept_buf_.reserve(1 << 20);
+  }
   r->writer_ = std::thread([p = r.get()] { p->writer_main(); });
   return r;
 }
 
 Recorder::~Recorder() {
   if (!closed_) (void)close();
+  if (kept_fd_ >= 0) ::close(kept_fd_);
 }
 
 bool Recorder::push(std::span<const double> row) noexcept {
@@ -95,6 +105,61 @@ bool Recorder::write_out(std::string& buf) {
   return true;
 }
 
+// Append the kept values waiting to their file; after a failure nothing more (the plots say so).
+bool Recorder::write_kept() {
+  if (kept_fd_ < 0 || kept_failed_) {
+    kept_buf_.clear();
+    return !kept_failed_;
+  }
+  for (size_t off = 0; off < kept_buf_.size();) {
+    const ssize_t n = ::write(kept_fd_, kept_buf_.data() + off, kept_buf_.size() - off);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      kept_failed_ = true;
+      break;
+    }
+    off += static_cast<size_t>(n);
+  }
+  kept_buf_.clear();
+  return !kept_failed_;
+}
+
+Status Recorder::for_each_kept(const std::function<void(std::span<const double> row)>& fn) const {
+  const std::string what = part_.string() + ".series (the kept columns' temporary file)";
+  if (kept_fd_ < 0) return kept_rows_ == 0 ? Status{} : Status{Error{what + ": not open"}};
+  if (kept_failed_) return Error{what + ": write failed (disk full?)"};
+  const size_t k = options_.keep_columns.size();
+  std::vector<double> block(4096 * k);
+  for (std::uint64_t row = 0; row < kept_rows_;) {
+    const size_t rows = static_cast<size_t>(std::min<std::uint64_t>(4096, kept_rows_ - row));
+    const size_t bytes = rows * k * sizeof(double);
+    size_t got = 0;
+    while (got < bytes) {
+      const ssize_t n = ::pread(kept_fd_, reinterpret_cast<char*>(block.data()) + got, bytes - got,
+                                static_cast<off_t>(row * k * sizeof(double) + got));
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) return Error{what + ": cannot read it back: " + (n < 0 ? std::strerror(errno) : "short file")};
+      got += static_cast<size_t>(n);
+    }
+    for (size_t r = 0; r < rows; ++r) fn(std::span<const double>(block.data() + r * k, k));
+    row += rows;
+  }
+  return {};
+}
+
+const std::vector<double>& Recorder::kept(size_t i) const {
+  if (!kept_loaded_) {
+    kept_loaded_ = true;
+    kept_cache_.assign(options_.keep_columns.size(), {});
+    for (auto& c : kept_cache_) c.reserve(static_cast<size_t>(kept_rows_));
+    const Status st = for_each_kept([&](std::span<const double> row) {
+      for (size_t c = 0; c < row.size(); ++c) kept_cache_[c].push_back(row[c]);
+    });
+    if (!st) kept_cache_.assign(options_.keep_columns.size(), {});
+  }
+  return kept_cache_[i];
+}
+
 // Format every row waiting in the ring into `buf`; true when anything was drained.
 bool Recorder::drain(std::string& buf) {
   bool any = false;
@@ -117,7 +182,8 @@ bool Recorder::drain(std::string& buf) {
       }
     }
     buf += '\n';
-    for (size_t i = 0; i < kept_.size(); ++i) kept_[i].push_back(row[options_.keep_columns[i]]);
+    for (size_t c : options_.keep_columns) kept_buf_.append(reinterpret_cast<const char*>(&row[c]), sizeof(double));
+    ++kept_rows_;
     rows_->pop();
     rows_written_.store(rows_written_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
     any = true;
@@ -142,6 +208,7 @@ void Recorder::writer_main() {
     // Whole rows only reach the file, so a run killed at any moment leaves complete lines.
     if (!buf.empty() && (stopping || Clock::now() - last_flush >= period)) {
       write_out(buf);
+      write_kept();
       last_flush = Clock::now();
     }
     if (stopping) break;

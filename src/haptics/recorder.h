@@ -1,5 +1,7 @@
 // recorder.h — Recorder: every tick's row goes from the haptic thread through a lock-free SPSC
-// ring to a writer thread that streams it to `<csv>.part`, flushed every ~100 ms, renamed at the end.
+// ring to a writer thread that streams it to `<csv>.part`, flushed every ~100 ms, renamed at the end;
+// the columns kept for the plots go, as binary doubles, to an unlinked temporary file beside it
+// (read back after close(), so a run of any length holds none of them in memory).
 #pragma once
 
 #include <palpate/core.h>
@@ -9,6 +11,7 @@
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -32,7 +35,7 @@ enum class ColumnFormat : std::uint8_t { number, integer, safety_events };
 struct RecorderOptions {
   size_t capacity_rows = 8192;      // ring size: 8 s of ticks at 1 kHz before anything is dropped
   double flush_period = 0.1;        // s between writes to the file (what a killed run keeps)
-  std::vector<size_t> keep_columns; // columns also kept in memory (for plots), read by kept()
+  std::vector<size_t> keep_columns; // columns also kept (for plots), in a temporary file: for_each_kept()
 };
 
 class Recorder {
@@ -58,8 +61,14 @@ class Recorder {
   size_t columns() const { return names_.size(); }
   std::uint64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
   std::uint64_t rows_written() const { return rows_written_.load(std::memory_order_relaxed); }
-  // After close(): the kept columns (in keep_columns order), and the events in order.
-  const std::vector<double>& kept(size_t i) const { return kept_[i]; }
+  // After close(): the kept columns' rows in order, read back from the temporary file a block at a
+  // time; `row` holds one row's kept columns (keep_columns order). An error when the file could not
+  // be written (disk full) or read.
+  Status for_each_kept(const std::function<void(std::span<const double> row)>& fn) const;
+  std::uint64_t kept_rows() const { return kept_rows_; }
+  // After close(): kept column i whole, in memory (read from the file on first use: a long run's
+  // columns are large; for_each_kept streams them). Empty when the file failed.
+  const std::vector<double>& kept(size_t i) const;
   const std::vector<RecorderEvent>& events() const { return events_; }
   const std::filesystem::path& part_path() const { return part_; }
 
@@ -82,7 +91,13 @@ class Recorder {
   std::atomic<bool> write_failed_{false};
   std::atomic<std::uint64_t> dropped_{0}, rows_written_{0};
   std::uint64_t events_dropped_ = 0;  // producer-owned
-  std::vector<std::vector<double>> kept_;  // writer-owned until close()
+  int kept_fd_ = -1;                       // the kept columns' unlinked temporary file
+  std::string kept_buf_;                   // writer-owned: kept values not yet written
+  std::uint64_t kept_rows_ = 0;            // writer-owned until close(): rows in kept_buf_ + file
+  bool kept_failed_ = false;               // writer-owned until close(): a write failed
+  bool write_kept();
+  mutable std::vector<std::vector<double>> kept_cache_;  // kept(i), loaded on first use
+  mutable bool kept_loaded_ = false;
   std::vector<RecorderEvent> events_;      // writer-owned until close()
   bool closed_ = false;
 };

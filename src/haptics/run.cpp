@@ -35,7 +35,7 @@ namespace {
 // each of these + ".part" or ".tmp-...".
 bool is_run_output(const std::string& name) {
   static const char* const kFixed[] = {"run.csv", "summary.json", "force_time.png", "force_depth.png",
-                                       "force.dat", "plots.gp", "plots.log"};
+                                       "force.dat", "plots.gp", "plots.log", "run.csv.part.series"};
   for (const char* f : kFixed)
     if (name == f || name.rfind(std::string(f) + ".tmp-", 0) == 0) return true;
   if (const size_t tmp = name.find(".tmp-"); tmp != std::string::npos && name.rfind("frame_", 0) == 0)
@@ -81,9 +81,11 @@ RunFootprint run_footprint(std::uint64_t ticks, size_t columns) {
   RunFootprint f;
   f.ticks = ticks;
   // run.csv: ~6 characters a column (95 B a tick with the 16 columns of one charged tissue);
-  // in memory, the 12 columns kept for the plots and the summary, 8 bytes each.
+  // beside it, the 12 columns kept for the plots, 8 bytes each, in a temporary file (gone at the
+  // end); in memory, the plotted rows only (at most PlotSeriesBuilder::kMaxRows of 4 doubles).
   f.csv_bytes = double(ticks) * 6.0 * double(columns);
-  f.memory_bytes = double(ticks) * 12.0 * 8.0;
+  f.series_bytes = double(ticks) * 12.0 * 8.0;
+  f.memory_bytes = double(std::min<std::uint64_t>(ticks, PlotSeriesBuilder::kMaxRows)) * 4.0 * 8.0;
   return f;
 }
 
@@ -220,16 +222,12 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     size_t columns = 15;
     for (const auto& t : tissues) columns += t->figure_names().size();
     const RunFootprint fp = run_footprint(ticks, columns);
-    const double memory = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGE_SIZE));
     const std::string what = fmt::format("duration {} s at dt {} s is {} ticks", scene.duration, dt, ticks);
-    if (memory > 0 && fp.memory_bytes > 0.5 * memory)
-      return Error{where + ": duration: " + what + ", whose recorded series need about " +
-                   gigabytes(fp.memory_bytes) + " of memory, more than half of this machine's " +
-                   gigabytes(memory) + "; shorten duration or raise dt"};
     const double disk = free_bytes(out);
-    if (disk >= 0 && fp.csv_bytes > disk)
+    if (disk >= 0 && fp.csv_bytes + fp.series_bytes > disk)
       return Error{where + ": duration: " + what + ": run.csv would be about " + gigabytes(fp.csv_bytes) +
-                   ", more than the " + gigabytes(disk) + " free at " + out.string() +
+                   " and the plots' series beside it " + gigabytes(fp.series_bytes) + ", more than the " +
+                   gigabytes(disk) + " free at " + out.string() +
                    "; shorten duration, raise dt or choose another output directory"};
   }
   if (Status s = clear_run_outputs(out); !s) return s.error();
@@ -478,28 +476,32 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   for (const RunEvent& e : summary.events)
     j["events"].push_back({{"time_s", e.time}, {"kind", e.kind}, {"tissue", e.tissue},
                            {"depth_m", e.depth}, {"force_N", e.force}});
-  // Plots of force against time and depth (a tool is always present in a scene).
-  const auto& ser = loop.series();  // t, tool_x..z, force_x..z, force_N, tool_qw..qz
-  const size_t n = ser.empty() ? 0 : ser[0].size();
+  // Plots of force against time and depth (a tool is always present in a scene), from the series
+  // streamed back from the recorder's file in two passes (first contact, then every tick), so a run
+  // of any length holds at most PlotSeriesBuilder::kMaxRows rows in memory.
+  const std::uint64_t n = loop.series_rows();  // t, tool_x..z, force_x..z, force_N, tool_qw..qz
   if (options.plots && n > 0) {
-    PlotSeries ps;
-    ps.time.resize(n), ps.depth.resize(n), ps.force.resize(n), ps.axial.resize(n);
-    size_t contact = n;
-    for (size_t k = 0; k < n && contact == n; ++k)
-      if (ser[7][k] > 1e-9) contact = k;
-    const size_t ref = contact == n ? 0 : contact;
-    const Vec3 tip0(ser[1][ref], ser[2][ref], ser[3][ref]);
+    std::uint64_t k = 0, contact = n;
+    Vec3 tip0 = Vec3::Zero(), first = Vec3::Zero();
+    Status pass = loop.for_each_series_row([&](std::span<const double> r) {
+      if (k == 0) first = Vec3(r[1], r[2], r[3]);
+      if (contact == n && r[7] > 1e-9) contact = k, tip0 = Vec3(r[1], r[2], r[3]);
+      ++k;
+    });
+    if (contact == n) tip0 = first;
+    PlotSeriesBuilder builder(n);
     const Vec3 tool_axis = scene.tool.axis.normalized();
-    for (size_t k = 0; k < n; ++k) {
-      // Depth and axial force along the needle as it pointed at that tick (the loop's own axis).
-      const Vec3 axis = needle_axis(tool_axis, Quat(ser[8][k], ser[9][k], ser[10][k], ser[11][k]).normalized());
-      ps.time[k] = ser[0][k];
-      ps.depth[k] = (Vec3(ser[1][k], ser[2][k], ser[3][k]) - tip0).dot(axis);
-      ps.force[k] = ser[7][k];
-      ps.axial[k] = -Vec3(ser[4][k], ser[5][k], ser[6][k]).dot(axis);
-    }
-    if (Status s = plot_run(out, scene.name, ps, summary.events, &summary.plots); !s)
+    if (pass)
+      pass = loop.for_each_series_row([&](std::span<const double> r) {
+        // Depth and axial force along the needle as it pointed at that tick (the loop's own axis).
+        const Vec3 axis = needle_axis(tool_axis, Quat(r[8], r[9], r[10], r[11]).normalized());
+        builder.add(r[0], (Vec3(r[1], r[2], r[3]) - tip0).dot(axis), r[7], -Vec3(r[4], r[5], r[6]).dot(axis));
+      });
+    if (!pass) {
+      summary.plot_error = "plots: " + pass.error().message;
+    } else if (Status s = plot_run(out, scene.name, builder.finish(), summary.events, &summary.plots); !s) {
       summary.plot_error = s.error().message;
+    }
   }
   j["outputs"] = {{"csv", summary.csv.filename().string()}};
   j["outputs"]["plots"] = nlohmann::json::array();

@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -54,6 +55,43 @@ bool whole_png(const std::filesystem::path& file, std::string& why) {
 }
 
 }  // namespace
+
+PlotSeriesBuilder::PlotSeriesBuilder(std::uint64_t ticks) {
+  if (ticks > kMaxRows) stride_ = (ticks + kMaxRows / 4 - 1) / (kMaxRows / 4);  // ≤ 4 rows a block
+  const std::uint64_t rows = stride_ == 1 ? ticks : 4 * ((ticks + stride_ - 1) / stride_);
+  for (auto* v : {&out_.time, &out_.depth, &out_.force, &out_.axial}) v->reserve(static_cast<size_t>(rows));
+}
+
+void PlotSeriesBuilder::add(double time, double depth, double force, double axial) {
+  const Row r{time, depth, force, axial, seen_++};
+  if (stride_ == 1) {
+    out_.time.push_back(time), out_.depth.push_back(depth), out_.force.push_back(force), out_.axial.push_back(axial);
+    return;
+  }
+  if (in_block_ == 0) lo_f_ = hi_f_ = lo_a_ = hi_a_ = r;
+  if (force < lo_f_.force) lo_f_ = r;
+  if (force > hi_f_.force) hi_f_ = r;
+  if (axial < lo_a_.axial) lo_a_ = r;
+  if (axial > hi_a_.axial) hi_a_ = r;
+  if (++in_block_ == stride_) flush();
+}
+
+void PlotSeriesBuilder::flush() {
+  if (in_block_ == 0) return;
+  Row rows[4] = {lo_f_, hi_f_, lo_a_, hi_a_};
+  std::sort(std::begin(rows), std::end(rows), [](const Row& a, const Row& b) { return a.k < b.k; });
+  for (int i = 0; i < 4; ++i) {
+    if (i > 0 && rows[i].k == rows[i - 1].k) continue;
+    out_.time.push_back(rows[i].time), out_.depth.push_back(rows[i].depth);
+    out_.force.push_back(rows[i].force), out_.axial.push_back(rows[i].axial);
+  }
+  in_block_ = 0;
+}
+
+PlotSeries PlotSeriesBuilder::finish() {
+  flush();
+  return std::move(out_);
+}
 
 Status plot_run(const std::filesystem::path& dir, const std::string& title, const PlotSeries& s,
                 std::span<const RunEvent> events, std::vector<std::filesystem::path>* written) {

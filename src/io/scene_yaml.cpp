@@ -1,5 +1,6 @@
 // scene_yaml.cpp — the YAML scene parser (the only file that includes yaml-cpp): a generic reader
 // driven by the parameter tables, plus the checks that span keys (dt <= duration, patch vs mesh, ...).
+#include "core/memory.h"
 #include "io/scene_params.h"
 
 #include <palpate/anatomy.h>
@@ -337,6 +338,14 @@ DeviceDef parse_device(const Ctx& c, const YAML::Node& node, int line, const std
                    format_number(dev.waypoints.back().t) + " s); expected non-decreasing times");
       dev.waypoints.push_back(wp);
     }
+    // Each waypoint is 88 bytes in the device (its pose and orientation); the YAML that listed them
+    // took far more (load_scene's estimate refuses a file too large to parse before this).
+    const double need = double(dev.waypoints.size()) * 88.0, memory = usable_memory_bytes();
+    if (memory > 0 && need > 0.5 * memory)
+      c.fail(wline, at + ".waypoints",
+             fmt::format("{} waypoints need about {}, more than half of this machine's {} of memory; expected a "
+                         "trajectory CSV (device.trajectory) or fewer waypoints",
+                         dev.waypoints.size(), memory_text(need), memory_text(memory)));
   }
   if (!dev.trajectory.empty()) {
     if (!scripted)
@@ -346,6 +355,14 @@ DeviceDef parse_device(const Ctx& c, const YAML::Node& node, int line, const std
       c.fail(k.line_or("trajectory", line), at + ".trajectory",
              "give either 'waypoints' or 'trajectory', not both");
     require_file(c, dev.trajectory, k.line_or("trajectory", line), at + ".trajectory");
+    // A row (~30 characters) becomes a 88-byte waypoint: refused when the file cannot fit.
+    std::error_code ec;
+    const double rows = double(fs::file_size(dev.trajectory, ec)) / 30.0, memory = usable_memory_bytes();
+    if (!ec && memory > 0 && rows * 88.0 > 0.5 * memory)
+      c.fail(k.line_or("trajectory", line), at + ".trajectory",
+             fmt::format("{} is about {:.3g} rows, about {} as waypoints, more than half of this machine's {} of "
+                         "memory; expected a shorter trajectory",
+                         dev.trajectory.string(), rows, memory_text(rows * 88.0), memory_text(memory)));
   }
   if (dev.kind == "replay") {
     if (dev.recording.empty()) c.fail(line, at, "missing required key 'recording' (kind is 'replay')");
@@ -417,7 +434,7 @@ TissueDef parse_tissue(const Ctx& c, const YAML::Node& node, size_t index, int l
     // lists, the triangles and the drawn copies); the hexagonal lattice's rows are spacing·√3/2 apart.
     const double particles = (p.width / p.spacing + 1) * (p.height / (p.spacing * 0.8660254037844386) + 1);
     const double need = particles * 300.0;
-    const double memory = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGE_SIZE));
+    const double memory = usable_memory_bytes();
     if (memory > 0 && need > memory)
       c.fail(pk.line_or("spacing", pline), path + ".patch.spacing",
              "a " + format_number(p.width) + " m x " + format_number(p.height) + " m patch at " +
@@ -572,6 +589,19 @@ Result<SceneDef> load_scene(const fs::path& file) {
   if (fs::is_directory(file, ec)) return Error{file.string() + ": is a directory; expected a YAML scene file"};
   std::ifstream in(file, std::ios::binary);
   if (!in) return Error{file.string() + ": cannot open scene file (" + std::strerror(errno) + ")"};
+  // The YAML parser holds about 75 bytes of nodes per byte of the file (3.9 GB for a 52 MB scene of
+  // 1,000,000 waypoints, and 3 minutes): a scene too large to parse is refused before it is read.
+  const auto size = fs::file_size(file, ec);
+  const double memory = usable_memory_bytes();
+  if (!ec && memory > 0 && double(size) * 80.0 > memory) {
+    size_t lines = 0;
+    for (std::string l; std::getline(in, l);) ++lines;
+    return Error{fmt::format("{}: {} in {} lines is about {} to parse, more than this machine's {} of memory; "
+                             "long paths belong in a trajectory CSV (device.trajectory: t,x,y,z rows, 88 bytes a "
+                             "waypoint) rather than device.waypoints",
+                             file.string(), memory_text(double(size)), lines, memory_text(double(size) * 80.0),
+                             memory_text(memory))};
+  }
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) return Error{file.string() + ": cannot read scene file"};

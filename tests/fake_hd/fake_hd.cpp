@@ -4,6 +4,7 @@
 // inspection functions are prefixed fake_hd_.
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -44,6 +45,8 @@ struct Fake {
   double max_force = 3.3;     // HD_NOMINAL_MAX_FORCE, N (a Touch's); 0 = a device reporting none
   std::thread servo;
   std::atomic<bool> running{false};
+  std::atomic<bool> stalled{false};  // the servo calls no callback (a library blocked inside a call)
+  bool nan_position = false;          // HD_CURRENT_POSITION reads NaN
   std::vector<unsigned int> enabled;
 };
 
@@ -61,6 +64,10 @@ void count(const char* name) {
 void servo_main() {
   Fake& f = fake();
   while (f.running.load()) {
+    if (f.stalled.load()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      continue;
+    }
     std::vector<Scheduled> now;
     {
       std::lock_guard<std::mutex> lock(f.m);
@@ -154,6 +161,7 @@ void hdGetDoublev(unsigned int what, double* out) {
     case 0x2050:  // HD_CURRENT_POSITION, mm
       if (!f.in_frame) ++f.frame_errors;
       for (int k = 0; k < 3; ++k) out[k] = n ? f.poses[i * 3 + size_t(k)] : 0.0;
+      if (f.nan_position) out[1] = std::nan("");
       break;
     case 0x2051:  // HD_CURRENT_VELOCITY, mm/s
       for (int k = 0; k < 3; ++k) out[k] = 0.0;
@@ -214,6 +222,16 @@ void fake_hd_reset(int device_present) {
   f.frame = 0;
   f.error = 0;
   f.max_force = 3.3;
+  f.stalled.store(false);
+  f.nan_position = false;
+}
+// While `on`, the servo thread runs no callback: the library blocked inside a call, or a device
+// that stopped answering.
+void fake_hd_stall(int on) { fake().stalled.store(on != 0); }
+// While `on`, the device reports a NaN position (a sensor fault).
+void fake_hd_set_nan_position(int on) {
+  std::lock_guard<std::mutex> lock(fake().m);
+  fake().nan_position = on != 0;
 }
 // The nominal maximum force the device reports from now on (N; 0 = none reported).
 void fake_hd_set_max_force(double newtons) {

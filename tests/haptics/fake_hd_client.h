@@ -21,7 +21,11 @@ struct FakeHd {
   int (*enabled)(unsigned) = nullptr;
   int (*forces)(double*, int) = nullptr;
   void (*set_max_force)(double) = nullptr;
+  void (*stall)(int) = nullptr;
+  void (*set_nan_position)(int) = nullptr;
   FakeHd() {
+    stall = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_stall"));
+    set_nan_position = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_set_nan_position"));
     set_max_force = reinterpret_cast<void (*)(double)>(::dlsym(lib, "fake_hd_set_max_force"));
     reset = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_reset"));
     set_poses = reinterpret_cast<void (*)(const double*, int)>(::dlsym(lib, "fake_hd_set_poses"));

@@ -2,6 +2,7 @@
 // sphere), patches laid on a surface mesh, the rest state, and the per-particle memory figure.
 #include <palpate/charged.h>
 
+#include "core/memory.h"
 #include "tissue/charged/remesh.h"
 
 #include <algorithm>
@@ -224,6 +225,23 @@ Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface, const Cha
     return Error{where + ": material 'mesh_spacing' (" + num(s) + " m) is too fine for a surface " +
                  num(extent) + " m across; expected at most 20000 particles along it"};
   if (Result<double> st = check_material(material, 0.0, where); !st) return st.error();
+  // What the patch laid at this spacing will take, refused before it is built: the surface's area
+  // over a hexagonal lattice cell (s² √3/2), about 300 bytes a particle at the peak of building
+  // (as a generated patch's estimate at load). A surface 1 m across at 50 µm passed the check
+  // along it above and would have been 4.6e8 particles.
+  double area = 0;
+  for (Eigen::Index f = 0; f < surface.F.rows(); ++f) {
+    const Vec3 a = surface.V.row(surface.F(f, 0)).transpose();
+    area += 0.5 * (surface.V.row(surface.F(f, 1)).transpose() - a).cross(surface.V.row(surface.F(f, 2)).transpose() - a).norm();
+  }
+  const double particles = area / (s * s * 0.8660254037844386);
+  const double need = particles * 300.0, memory = usable_memory_bytes();
+  if (particles > double(kMaxParticles) || (memory > 0 && need > memory))
+    return Error{where + ": material 'mesh_spacing' (" + num(s) + " m) lays about " + num(particles) +
+                 " particles on the surface's " + num(area) + " m², about " + memory_text(need) +
+                 " to build, more than " + (particles > double(kMaxParticles) ? std::string("the model's index range (") +
+                 std::to_string(kMaxParticles) + " particles)" : "this machine's " + memory_text(memory) + " of memory") +
+                 "; expected a coarser mesh_spacing"};
 
   Result<SurfaceMesh> remeshed = charged::remesh_isotropic(surface, s, where);
   if (!remeshed) return remeshed.error();

@@ -3,6 +3,8 @@
 // LDLᵀ factor, and the model and state built around it.
 #include <palpate/spring.h>
 
+#include "core/memory.h"
+
 #include <Eigen/Cholesky>
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
@@ -117,9 +119,15 @@ Result<SpringPredictor> spring::build_predictor(const SpringNetwork& net, const 
   const auto triplets = predictor_triplets(net, o);
   A.setFromTriplets(triplets.begin(), triplets.end());
   if (o.solver == SpringSolver::desbrun) {
-    if (net.size() > o.dense_limit)
-      return Error{"the desbrun solver keeps a dense n x n inverse; " + std::to_string(n) +
-                   " vertices exceed its limit of " + std::to_string(o.dense_limit) + " (use solver: sparse)"};
+    // n² doubles kept (the inverse), and about four times that at the peak of building it (the
+    // dense matrix, its Cholesky factor, the inverse, a column block): refused when that cannot fit.
+    const double kept = 8.0 * double(n) * double(n), need = 4.0 * kept, memory = usable_memory_bytes();
+    if (net.size() > o.dense_limit || (memory > 0 && need > memory))
+      return Error{"material.solver 'desbrun' keeps a dense n x n inverse: " + std::to_string(n) + " vertices, " +
+                   memory_text(kept) + " kept and about " + memory_text(need) + " to build" +
+                   (net.size() > o.dense_limit ? ", past its limit of " + std::to_string(o.dense_limit) + " vertices"
+                                               : ", more than this machine's " + memory_text(memory) + " of memory") +
+                   " (use solver: sparse)"};
     const Eigen::MatrixXd dense = Eigen::MatrixXd(A);
     Eigen::LLT<Eigen::MatrixXd> llt(dense);
     if (llt.info() != Eigen::Success) return Error{"the predictor matrix is not positive definite"};

@@ -2,6 +2,7 @@
 // stiffness from a Young's modulus (Van Gelder 1998; docs/models/mass-spring.md).
 #include <palpate/spring.h>
 
+#include "core/memory.h"
 #include "tissue/spring/forces.h"
 #include "tissue/spring/shapes.h"
 
@@ -108,6 +109,18 @@ Status finish(SpringNetwork& net, const SpringNetworkOptions& o, const std::vect
   return validate(net, where);
 }
 
+// all_pairs puts n(n-1)/2 springs on n vertices: refused when they cannot fit (about 64 bytes a
+// spring in the network and the model built from it), naming the key and the numbers.
+Status check_all_pairs_fit(size_t n, const std::string& where) {
+  const double springs = double(n) * double(n > 0 ? n - 1 : 0) / 2, need = springs * 64.0;
+  const double memory = usable_memory_bytes();
+  if (springs > 2e9 || (memory > 0 && need > memory))
+    return Error{where + ": material.topology 'all_pairs' on " + std::to_string(n) + " vertices is " +
+                 fmt::format("{:.3g}", springs) + " springs, about " + memory_text(need) + ", more than this machine's " +
+                 memory_text(memory) + " of memory; expected topology edges or tet_edges"};
+  return {};
+}
+
 void all_pairs(SpringNetwork& net) {
   const int n = static_cast<int>(net.rest.rows());
   net.springs.clear();
@@ -186,6 +199,7 @@ Result<SpringNetwork> make_spring_network(const TetMesh& mesh, const SpringNetwo
     return Error{where + ": poisson_ratio needs youngs_modulus"};
   if (o.topology == SpringTopology::all_pairs) {
     if (o.poisson_ratio > 0) return Error{where + ": poisson_ratio needs tet_edges or edges, not all_pairs"};
+    if (Status st = check_all_pairs_fit(static_cast<size_t>(net.rest.rows()), where); !st) return st.error();
     all_pairs(net);
     edge_volume.clear();
   } else {
@@ -229,8 +243,12 @@ Result<SpringNetwork> make_spring_network(const SurfaceMesh& mesh, const SpringN
   if (o.density > 0 && !(total > 0))
     return Error{where + ": density needs a closed, outward-oriented surface (enclosed volume is " +
                  fmt_num(total) + " m³)"};
-  if (o.topology == SpringTopology::all_pairs) all_pairs(net);
-  else net.springs = std::move(set.springs);
+  if (o.topology == SpringTopology::all_pairs) {
+    if (Status st = check_all_pairs_fit(n, where); !st) return st.error();
+    all_pairs(net);
+  } else {
+    net.springs = std::move(set.springs);
+  }
   if (net.springs.empty()) return Error{where + ": the surface has no edges to put springs on"};
   if (Status st = finish(net, o, carried, total, {}, where); !st) return st.error();
   return net;
