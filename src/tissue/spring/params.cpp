@@ -38,6 +38,9 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
       {"exact_iterations", &D::exact_iterations, 0, 20, "",
        "after the predictor, this many conjugate-gradient steps on the exact backward-Euler system (the "
        "predictor as preconditioner): backward Euler's damping of transverse motion, one solve more each"},
+      {"physics_rate", &D::physics_rate, 0.0, 1000.0, "Hz",
+       "when > 0, the organ steps on its own thread at this rate (an organ too large for 1 ms) and the haptic "
+       "thread solves the contact against its compliance every tick; `palpate run --physics-rate` overrides it"},
   };
   return table;
 }
