@@ -125,11 +125,17 @@ UltrasoundImager::UltrasoundImager(const NeckDef& neck, const ProbeDef& probe) :
   (void)gaussian_table();
 }
 
+namespace {
+// The centre of pixel (column, row) of the probe's image plane in the frame `f`.
+Vec3 frame_pixel(const NeckCompression::Frame& f, const ProbeDef& p, double column, double row) noexcept {
+  const double pixel_width = p.width / p.image_width, pixel_depth = p.depth / p.image_height;
+  return f.origin + (-0.5 * p.width + (column + 0.5) * pixel_width) * f.lateral +
+         ((row + 0.5) * pixel_depth) * f.beam;
+}
+}  // namespace
+
 Vec3 UltrasoundImager::pixel_position(const ProbePose& probe, double column, double row) const noexcept {
-  const NeckCompression::Frame f = model_.frame(probe);
-  const ProbeDef& p = model_.probe();
-  return f.origin + (-0.5 * p.width + (column + 0.5) * p.width / p.image_width) * f.lateral +
-         ((row + 0.5) * p.depth / p.image_height) * f.beam;
+  return frame_pixel(model_.frame(probe), model_.probe(), column, row);
 }
 
 void UltrasoundImager::set_vein_wall(std::span<const Vec3f> rest, std::span<const Vec3f> now) {
@@ -152,10 +158,7 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
 
   const NeckCompression::State s = model_.state(probe, t);
   const NeckCompression::Frame f = model_.frame(probe);
-  const auto pixel = [&](double col, double row) {
-    return Vec3(f.origin + (-0.5 * p.width + (col + 0.5) * out.pixel_width) * f.lateral +
-                ((row + 0.5) * out.pixel_depth) * f.beam);
-  };
+  const auto pixel = [&](double col, double row) { return frame_pixel(f, p, col, row); };
 
   // The inverse displacement map on a coarse grid: rest position X of the tissue now at x solves
   // X + u(X) = x (fixed point; u is smooth and small against its length scale).
