@@ -328,6 +328,8 @@ class SpringCompliance {
   // the contact force on vertex j that the step ended with). False when the model has no surface
   // triangles or predictor, or no surface vertex is within reach.
   bool contact_patch(const SpringState& state, const ToolState& tool, double margin, ContactPatch& patch);
+  // The vertices of the last patch, in its point order.
+  const std::vector<int>& patch_vertices() const noexcept { return patch_vertices_; }
   std::uint64_t computed() const noexcept { return computed_; }  // vertices' z_i computed so far
   size_t cached() const noexcept { return cached_; }
 

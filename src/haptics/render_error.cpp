@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 namespace palpate {
 
@@ -58,8 +59,19 @@ std::vector<Vec3> synchronous_forces(const SpringModel& model, const ProbeScript
 }
 
 RenderError multirate_error(SpringModel model, MultiRateContact method, const ProbeScript& script,
-                            const std::vector<Vec3>& truth, double max_stiffness) {
+                            const std::vector<Vec3>& truth, double max_stiffness, bool with_step_reference) {
   const double physics_dt = model.options.dt;
+  // The step reference: the same model stepped in lockstep with the worker's (same tools, same
+  // ticks, so the same states), and from each of its states once more every tick on a copy.
+  std::unique_ptr<SpringModel> ref;
+  SpringState ref_state, prev_state, trial;
+  if (with_step_reference) {
+    ref = std::make_unique<SpringModel>(model);
+    ref_state = make_state(*ref);
+    prev_state = trial = ref_state;
+  }
+  const long every = std::max(1L, std::lround(physics_dt / script.dt));
+  double step_sum2 = 0, step_max = 0;
   auto tissue = make_spring_tissue("organ", std::move(model));
   PhysicsWorker worker(*tissue, 0, physics_dt, script.dt, max_stiffness, false, method);
   worker.start();
@@ -76,11 +88,25 @@ RenderError multirate_error(SpringModel model, MultiRateContact method, const Pr
     sum2 += err * err;
     max_err = std::max(max_err, err);
     e.peak = std::max(e.peak, truth[static_cast<size_t>(k)].norm());
+    if (ref) {
+      const ToolState tool = script.at(k);
+      if (k % every == 0) {  // the worker's physics step, taken the same way: keep the state before it
+        prev_state = ref_state;
+        (void)step(*ref, ref_state, &tool);
+      }
+      trial = prev_state;  // that step again, from the same state, with this tick's tool
+      const Vec3 f_ref = step(*ref, trial, &tool) ? trial.tool_force : Vec3::Zero();
+      const double d = (f - f_ref).norm();
+      step_sum2 += d * d;
+      step_max = std::max(step_max, d);
+    }
   }
   worker.stop();
   if (e.peak > 0 && n > 0) {
     e.rms = std::sqrt(sum2 / static_cast<double>(n)) / e.peak;
     e.max = max_err / e.peak;
+    e.step_rms = std::sqrt(step_sum2 / static_cast<double>(n)) / e.peak;
+    e.step_max = step_max / e.peak;
   }
   e.patch_ticks = worker.patch_ticks();
   e.patch_fallbacks = worker.patch_fallbacks();

@@ -39,13 +39,19 @@ struct RenderError {
   double rms = 0;     // sqrt(mean |F − F_truth|²) / max |F_truth|
   double max = 0;     // max |F − F_truth| / max |F_truth|
   double peak = 0;    // N, max |F_truth|
+  // The rendering's own error: against the physics model's full step taken every tick from its
+  // last physics state with the tool where it is that tick (what the multi-rate loop would feel
+  // if the physics could step at 1 kHz), relative to the same peak. 0 unless asked for.
+  double step_rms = 0, step_max = 0;
   std::uint64_t patch_ticks = 0, patch_fallbacks = 0, physics_steps = 0;
   std::vector<Vec3> force;  // N, each tick's rendered force
 };
 
 // The same script through a PhysicsWorker (threaded = false: it steps `model` inline every
 // model.options.dt / script.dt ticks) rendering with `method`; errors against `truth`.
+// with_step_reference: also the step_* errors (a full step of the model every tick: costly).
 RenderError multirate_error(SpringModel model, MultiRateContact method, const ProbeScript& script,
-                            const std::vector<Vec3>& truth, double max_stiffness = 1000.0);
+                            const std::vector<Vec3>& truth, double max_stiffness = 1000.0,
+                            bool with_step_reference = false);
 
 }  // namespace palpate
