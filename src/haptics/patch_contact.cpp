@@ -132,7 +132,10 @@ PatchContact solve_patch(const ContactPatch& patch, const Vec3& centre, double r
       }
     }
     w = std::max(0.0, w);
-    const double f_new = std::max(0.0, k * (geo.depth + w * f) / (1 + k * w));
+    double f_new = std::max(0.0, k * (geo.depth + w * f) / (1 + k * w));
+    // The geometry moves with the load (which triangles press, their weights): past the first
+    // iterations, half steps keep the iteration from cycling between two contact sets.
+    if (it >= 2) f_new = 0.5 * (f_new + f);
     const bool converged = std::abs(f_new - f) <= 1e-9 * (1 + f_new);
     f = f_new;
     // The points under the load −F g: y_i = x_free,i − F Σ_j W_ij g_j.

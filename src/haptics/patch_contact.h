@@ -33,10 +33,11 @@ struct PatchContact {
 // Σ ω_t n_t — with the points under the load −F g: y = x_free − W g F. Solved by Newton on F with
 // the geometry re-evaluated each iteration: with w = gᵀ W g (m/N, the compliance along g),
 //   F⁺ = max(0, k (Φ(y) + w F) / (1 + k w)),   y ← x_free − W g F⁺,
-// until F changes by less than 1e-9·(1 + F) N or `max_iterations`. k = min(patch.stiffness,
+// (half steps from the third iteration on, so a contact set that changes with the load does not
+// make it cycle) until F changes by less than 1e-9·(1 + F) N or `max_iterations`. k = min(patch.stiffness,
 // max_stiffness): the rendered stiffness dF/dc = k / (1 + k w) never exceeds the device's.
 // noexcept, no allocation: O(iterations · (triangles + points · loaded points)).
 PatchContact solve_patch(const ContactPatch& patch, const Vec3& centre, double radius, double max_stiffness,
-                         PatchScratch& scratch, int max_iterations = 8) noexcept;
+                         PatchScratch& scratch, int max_iterations = 24) noexcept;
 
 }  // namespace palpate
