@@ -115,6 +115,7 @@ const SpringModel& cached(const std::string& key) {
     SpringModelOptions o = options(solver);
     if (today || key.find("/vertex_contact") != std::string::npos) o.contact = SpringContact::vertices;
     if (key.find("/exact1") != std::string::npos) o.exact_iterations = 1;
+    if (key.find("/directional") != std::string::npos) o.directional_correction = true;
     o.single_precision = single;
     auto predictor = *spring::build_predictor(net, o, amd_columns ? spring::SparseOrdering::amd
                                                                   : spring::SparseOrdering::fewest_nonzeros);
@@ -182,6 +183,13 @@ void BM_SpringTick_Organ10k_VolumeExact1(benchmark::State& s) { tick(s, "organ10
 BENCHMARK(BM_SpringTick_Block10_VolumeExact1)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block20_VolumeExact1)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Organ10k_VolumeExact1)->Unit(benchmark::kMicrosecond);
+// directional_correction: the right-hand side with each spring's exact stiffness, in the spring pass.
+void BM_SpringTick_Block10_VolumeDirectional(benchmark::State& s) { tick(s, "block10/volume/directional"); }
+void BM_SpringTick_Block20_VolumeDirectional(benchmark::State& s) { tick(s, "block20/volume/directional"); }
+void BM_SpringTick_Organ10k_VolumeDirectional(benchmark::State& s) { tick(s, "organ10k/volume/directional"); }
+BENCHMARK(BM_SpringTick_Block10_VolumeDirectional)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Block20_VolumeDirectional)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SpringTick_Organ10k_VolumeDirectional)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block10_Today)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block10_Volume)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block20_Today)->Unit(benchmark::kMicrosecond);

@@ -28,7 +28,7 @@ TEST(SofaLiver, SagsToEquilibriumHeldByItsAnchors) {
                ke = column("kinetic_energy_J");
   std::vector<double> fig(names.size());
 
-  palpate::ToolState tool;  // the probe stays far below the liver, as in the scene
+  palpate::ToolState tool;  // no tool on the organ, as in SOFA's scene (the shipped scene's probe presses it)
   tool.tip = palpate::Vec3(0, -1, 0);
   tool.radius = scene->tool.radius;
   double disp_at_half = 0;

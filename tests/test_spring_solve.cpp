@@ -415,14 +415,17 @@ TEST(SpringSolve, VectorisedSpringPassMatchesTheScalarOne) {
   for (size_t e = 0; e < net.springs.size(); ++e) net.rest_length[e] *= 1.0 + 0.1 * std::sin(3.0 * static_cast<double>(e));
   if (!spring::has_avx2_fma()) std::printf("no AVX2 + FMA here: all ran the scalar pass\n");
   if (!spring::has_avx512()) std::printf("no AVX-512 here: its pass fell back to AVX2\n");
-  for (const bool uniform : {true, false}) {
-    if (!uniform)
+  // Then (directional) the directional_correction's right-hand side, AVX2 against scalar.
+  for (const int pass : {0, 1, 2}) {
+    const bool uniform = pass == 0, directional = pass == 2;
+    if (pass == 1)
       for (size_t e = 0; e < net.springs.size(); ++e) {
         net.stiffness[e] *= 1.0 + 0.5 * std::sin(static_cast<double>(e));
         net.damping[e] *= 1.0 + 0.5 * std::cos(static_cast<double>(e));
       }
     SpringModelOptions o;
     o.solver = SpringSolver::sparse;
+    o.directional_correction = directional;
     const SpringModel model = must_build(net, o);
     ASSERT_EQ(model.uniform_stiffness > 0 && model.uniform_damping, uniform);
     const Eigen::Index n = static_cast<Eigen::Index>(net.size());
@@ -438,9 +441,36 @@ TEST(SpringSolve, VectorisedSpringPassMatchesTheScalarOne) {
       RowMat3d f1 = f_in, r1 = r_in;
       // Start one double in, so the pass has to find its own 64-byte boundary.
       spring::add_spring_forces_and_stiffness_term(model, x, v, f1, r1, scratch.data() + 1, true, k);
-      EXPECT_LT((f1 - f0).cwiseAbs().maxCoeff(), 1e-13 * f0.cwiseAbs().maxCoeff()) << "uniform " << uniform;
-      EXPECT_LT((r1 - r0).cwiseAbs().maxCoeff(), 1e-13 * r0.cwiseAbs().maxCoeff()) << "uniform " << uniform;
+      EXPECT_LT((f1 - f0).cwiseAbs().maxCoeff(), 1e-13 * f0.cwiseAbs().maxCoeff()) << "pass " << pass;
+      EXPECT_LT((r1 - r0).cwiseAbs().maxCoeff(), 1e-13 * r0.cwiseAbs().maxCoeff()) << "pass " << pass;
       EXPECT_TRUE(f1.allFinite() && r1.allFinite());
+    }
+    if (directional) {
+      // The correction changes the right-hand side (the springs are stretched, moving, not parallel
+      // to their velocities' differences) and not the forces: r − r_in is h K_exact v per spring.
+      SpringModelOptions plain = o;
+      plain.directional_correction = false;
+      const SpringModel reference = must_build(net, plain);
+      RowMat3d f2 = f_in, r2 = r_in;
+      spring::add_spring_forces_and_stiffness_term(reference, x, v, f2, r2, nullptr, false);
+      EXPECT_EQ(f2, f0);
+      EXPECT_GT((r2 - r0).cwiseAbs().maxCoeff(), 1e-3 * (r2 - r_in).cwiseAbs().maxCoeff());
+      // Against the exact Jacobian written out: h Σ_e k[uuᵀ + max(0, 1 − L/l)(I − uuᵀ)](v_j − v_i).
+      RowMat3d expect = r_in;
+      const double h = o.dt;
+      for (size_t e = 0; e < net.springs.size(); ++e) {
+        const int i = net.springs[e][0], j = net.springs[e][1];
+        const Vec3 d = (x.row(j) - x.row(i)).transpose(), w = (v.row(j) - v.row(i)).transpose();
+        const double l = d.norm();
+        Vec3 t = h * net.stiffness[e] * w;
+        if (l > 0) {
+          const Vec3 u = d / l;
+          t = h * net.stiffness[e] * (u.dot(w) * u + std::max(0.0, 1.0 - net.rest_length[e] / l) * (w - u.dot(w) * u));
+        }
+        expect.row(i) += t.transpose();
+        expect.row(j) -= t.transpose();
+      }
+      EXPECT_LT((r0 - expect).cwiseAbs().maxCoeff(), 1e-12 * r0.cwiseAbs().maxCoeff());
     }
   }
 }

@@ -73,7 +73,10 @@ TEST(SpringStiffness, HangingBlockSagsTheSameOnTwoMeshes) {
 namespace {
 // A sphere of radius R pressed into the middle of the top face at 10 mm/s to depth dmax and held:
 // force (on the tool, up) at each requested depth (quasi-static: speed slow against the block).
-std::vector<double> indent(const TetMesh& mesh, double nu, double R, const std::vector<double>& depths) {
+// `tissue_depth` (optional) gets the depth of the tissue's own indentation at each: d minus the
+// contact's penalty depth F/k_c (the contact in series with the tissue).
+std::vector<double> indent(const TetMesh& mesh, double nu, double R, const std::vector<double>& depths,
+                           std::vector<double>* tissue_depth = nullptr) {
   const double top = mesh.V.col(1).maxCoeff(), bottom = mesh.V.col(1).minCoeff();
   const double cx = 0.5 * (mesh.V.col(0).maxCoeff() + mesh.V.col(0).minCoeff());
   const double cz = 0.5 * (mesh.V.col(2).maxCoeff() + mesh.V.col(2).minCoeff());
@@ -103,6 +106,7 @@ std::vector<double> indent(const TetMesh& mesh, double nu, double R, const std::
       step(model, s, &tool);
     }
     out.push_back(s.tool_force.y());
+    if (tissue_depth) tissue_depth->push_back(d - s.contact_depth);
   }
   return out;
 }
@@ -134,4 +138,24 @@ TEST(SpringStiffness, SphereIndentationGivesTheSameForceOnTwoMeshes) {
   std::printf("force-depth exponent 0.5-1 mm: grid %.3f, gmsh %.3f\n", ea, eb);
   RecordProperty("exponent_grid", std::to_string(ea));
   RecordProperty("exponent_gmsh", std::to_string(eb));
+}
+
+// Experiment, not a check (issue 21): the force–depth exponent at small depth against the mesh
+// spacing (4, 2, 1.33 mm), from the tool's travel and from the tissue's own depth. It swings between
+// 1.20 and 1.42 and does not settle to Hertz's 1.5 at these depths (figures and the reason:
+// docs/models/mass-spring.md, "Why the exponent is low"). Run with --gtest_also_run_disabled_tests
+// (about 95 s).
+TEST(SpringStiffness, DISABLED_IndentationExponentAgainstTheMeshSpacing) {
+  const double R = 0.008, nu = 0.45;
+  const std::vector<double> d = {0.00025, 0.0005, 0.001, 0.002};
+  for (int n : {11, 21, 31}) {
+    const double spacing = 0.04 / (n - 1);
+    const TetMesh grid = spring::make_block(n, n, n, spacing);
+    std::vector<double> td;
+    const auto f = indent(grid, nu, R, d, &td);
+    for (size_t k = 1; k < d.size(); ++k)
+      std::printf("spacing %.2f mm, %.2f-%.2f mm: F %.5f-%.5f N, exponent %.3f, tissue depth %.4f-%.4f mm: %.3f\n",
+                  spacing * 1e3, d[k - 1] * 1e3, d[k] * 1e3, f[k - 1], f[k], std::log(f[k] / f[k - 1]) / std::log(d[k] / d[k - 1]),
+                  td[k - 1] * 1e3, td[k] * 1e3, std::log(f[k] / f[k - 1]) / std::log(td[k] / td[k - 1]));
+  }
 }

@@ -137,6 +137,13 @@ struct SpringModelOptions {
   // predictor as the preconditioner. Each costs one more solve and one pass over springs and
   // tetrahedra. 0: the predictor alone (its transverse stiffness damps transverse motion more).
   int exact_iterations = 0;
+  // Backward Euler's damping without a second solve (docs/models/mass-spring.md, "Damping"): the
+  // right-hand side's −h K v term with each spring's exact stiffness k[uuᵀ + max(0, 1 − L/l)(I − uuᵀ)]
+  // (the direction the constant matrix drops) instead of the predictor's k I, computed in the same
+  // pass as the spring forces. The volume term's share stays the predictor's (its exact part in the
+  // right-hand side would not be stable). Stable: per spring the exact stiffness is ≤ k I. Generic
+  // (not all-pairs) networks; ignored when exact_iterations > 0 (the two are alternatives).
+  bool directional_correction = false;
 };
 
 // The precomputed predictor: A = M + h(γI + C_L) + h²K_L over the n vertices, where K_L and C_L are
@@ -268,8 +275,8 @@ struct SpringState {
   // What the last step found.
   // Surface contact: the contact force the last step ended with, on each vertex it acts on (the next
   // step starts with it as an external force, then corrects it), and its size F (N).
-  static constexpr int kMaxContactVertices = 96;
-  static constexpr int kMaxContactTriangles = 32;
+  static constexpr int kMaxContactVertices = 128;
+  static constexpr int kMaxContactTriangles = 64;
   std::array<int, kMaxContactVertices> contact_vertex{};
   std::array<Vec3, kMaxContactVertices> contact_load{};  // N, on the organ at contact_vertex
   int contact_vertex_count = 0;

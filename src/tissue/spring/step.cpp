@@ -635,6 +635,96 @@ Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
   return a + v * ab + u * ac;
 }
 
+// Closest points of the segments [p1, q1] and [p2, q2] (Ericson 2005, §5.1.9): their parameters
+// s, t in [0, 1]. Parallel segments have a set of closest pairs; then s is the middle of the part of
+// [p1, q1] that faces [p2, q2] (a shaft lying along an edge is carried at the middle of the overlap).
+void closest_on_segments(const Vec3& p1, const Vec3& q1, const Vec3& p2, const Vec3& q2, double& s,
+                         double& t) noexcept {
+  const Vec3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+  if (!(a > 0) && !(e > 0)) { s = t = 0; return; }
+  if (!(a > 0)) { s = 0; t = std::clamp(f / e, 0.0, 1.0); return; }
+  const double c = d1.dot(r);
+  if (!(e > 0)) { t = 0; s = std::clamp(-c / a, 0.0, 1.0); return; }
+  const double b = d1.dot(d2), denom = a * e - b * b;
+  if (denom > 1e-12 * a * e) {
+    s = std::clamp((b * f - c * e) / denom, 0.0, 1.0);
+  } else {  // parallel: the middle of [p1, q1]'s part over [p2, q2]
+    const double s0 = std::clamp(-c / a, 0.0, 1.0), s1 = std::clamp((b - c) / a, 0.0, 1.0);
+    s = 0.5 * (s0 + s1);
+  }
+  t = (b * s + f) / e;
+  if (t < 0) { t = 0; s = std::clamp(-c / a, 0.0, 1.0); }
+  else if (t > 1) { t = 1; s = std::clamp((b - c) / a, 0.0, 1.0); }
+}
+
+// The closest points of the segment [p0, p1] (a needle's shaft) and the triangle (a, b, c): q on the
+// segment, the point on the triangle returned with its barycentric weights w; the distance is
+// |q − returned|. Candidates (Ericson 2005, §5.1.10): each end against the triangle, the segment
+// against each edge; a segment through the triangle is at distance 0 (q = the crossing). A shaft
+// lying parallel to the face (within 1e-3 rad) over it has a set of closest pairs: it is then carried
+// at the middle of its part over the triangle (clipped against the three edges), so that a needle laid
+// on a face loads it symmetrically, not at whichever end round-off picks.
+Vec3 closest_segment_triangle(const Vec3& p0, const Vec3& p1, const Vec3& a, const Vec3& b, const Vec3& c, Vec3& q,
+                              Vec3& w) noexcept {
+  const Vec3 d = p1 - p0, nf = (b - a).cross(c - a);
+  const double len2 = d.squaredNorm(), area2 = nf.squaredNorm();
+  if (area2 > 0 && len2 > 0) {
+    const double h0 = nf.dot(p0 - a), h1 = nf.dot(p1 - a);
+    const Vec3 edge[3][2] = {{a, b}, {b, c}, {c, a}};
+    if ((h0 < 0 && h1 > 0) || (h0 > 0 && h1 < 0)) {  // crosses the plane: inside the triangle?
+      const Vec3 x = p0 + (h0 / (h0 - h1)) * d;
+      bool in = true;
+      for (const auto& E : edge) in = in && nf.dot((E[1] - E[0]).cross(x - E[0])) >= 0;
+      if (in) {
+        q = x;
+        return closest_on_triangle(x, a, b, c, w);
+      }
+    }
+    if (std::abs(nf.dot(d)) <= 1e-3 * std::sqrt(area2 * len2)) {
+      // Parallel to the face: the part of the segment whose projection lies inside (Cyrus–Beck).
+      double lo = 0, hi = 1;
+      for (const auto& E : edge) {
+        const Vec3 m = nf.cross(E[1] - E[0]);  // in the plane, pointing into the triangle
+        const double g0 = m.dot(p0 - E[0]), gd = m.dot(d);
+        if (gd > 0) lo = std::max(lo, -g0 / gd);
+        else if (gd < 0) hi = std::min(hi, -g0 / gd);
+        else if (g0 < 0) hi = -1;
+      }
+      if (lo <= hi) {
+        q = p0 + (0.5 * (lo + hi)) * d;
+        return closest_on_triangle(q, a, b, c, w);
+      }
+    }
+  }
+  Vec3 wk;
+  Vec3 best = closest_on_triangle(p0, a, b, c, w);
+  q = p0;
+  double best_d2 = (p0 - best).squaredNorm();
+  {
+    const Vec3 pk = closest_on_triangle(p1, a, b, c, wk);
+    const double d2 = (p1 - pk).squaredNorm();
+    if (d2 < best_d2) { best_d2 = d2; best = pk; q = p1; w = wk; }
+  }
+  const Vec3 corner[3] = {a, b, c};
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 &e0 = corner[k], &e1 = corner[(k + 1) % 3];
+    double s, t;
+    closest_on_segments(p0, p1, e0, e1, s, t);
+    const Vec3 qs = p0 + s * d, pe = e0 + t * (e1 - e0);
+    const double d2 = (qs - pe).squaredNorm();
+    if (d2 < best_d2) {
+      best_d2 = d2;
+      best = pe;
+      q = qs;
+      w.setZero();
+      w[k] = 1 - t;
+      w[(k + 1) % 3] = t;
+    }
+  }
+  return best;
+}
+
 // Surface contact, after the solve (docs/models/mass-spring.md, "Contact"). The tool's sphere
 // (centre c, radius r) against the surface triangles at the new positions: each triangle t whose
 // closest point p_t lies within r, on its outer side, is pressed with weight φ_t = r − |c − p_t|
@@ -648,6 +738,9 @@ Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
 // the step having already carried F. The difference F⁺ − F moves the contact vertices now
 // (Δv_i = −h (F⁺ − F) g_i / (m_i + hγ)) and acts as −F⁺ g_i in the next step. At rest F⁺ = F, so
 // F = k_c Φ: a penalty of stiffness k_c in series with the tissue, independent of the masses.
+// A needle (tool.needle, tool.length > 0) is a capsule: each triangle is pressed from the shaft's
+// point closest to it (closest_segment_triangle) instead of the centre, and once in contact a
+// triangle the shaft has been pushed behind presses it by r plus that distance along its normal.
 void surface_contact(const SpringModel& model, SpringState& s, const ToolState& tool) noexcept {
   const SpringNetwork& net = model.network;
   const double h = model.options.dt, kc = model.options.contact_stiffness;
@@ -658,6 +751,7 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
   // faster than r per step) or on the first step (a tool that starts inside). Otherwise the pass
   // over the triangles is a bounding-box test each.
   const bool search_inside = model.closed_surface && (s.contact_vertex_count > 0 || s.time == 0);
+  const double depth_prev = s.contact_vertex_count > 0 ? s.contact_depth : 0.0;
   s.tool_force -= s.carried_on_tool;  // replaced below by the corrected force
   s.carried_on_tool.setZero();
   s.contact_vertex_count = 0;
@@ -666,12 +760,27 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
   s.contacts = 0;
   if (r <= 0 || kc <= 0 || net.triangles.empty()) return;
   const Vec3 c = tool.tip;
-  // Triangles within r of the centre (the deepest kept when there are more than fit), and the
-  // nearest triangle overall when the centre may be inside.
+  // A needle's shaft: the segment [tip − length·axis, tip] of radius r (a capsule), each triangle
+  // pressed from the shaft's point closest to it. A sphere (or a needle of no length): the tip only.
+  const double axis_norm = tool.axis.norm();
+  const bool shaft = tool.needle && tool.length > 0 && axis_norm > 0;
+  const Vec3 back = shaft ? Vec3(c - (tool.length / axis_norm) * tool.axis) : c;
+  const Vec3 tool_lo = c.cwiseMin(back), tool_hi = c.cwiseMax(back);
+  // A shaft that was in contact may have been pushed behind the faces it presses (the depth is not
+  // bounded by a thin needle's radius, as the tip's is by the inside test): a triangle whose plane
+  // the shaft's closest point is behind, over the triangle, by less than the last depth plus r,
+  // still presses it, by r plus that distance, along its outward normal. Only on a closed surface
+  // (inside is defined), after a contact (it went in through the surface).
+  const double behind = shaft && model.closed_surface && depth_prev > 0 ? depth_prev + r : 0.0;
+  const double reach = r + behind;
+  // Triangles within reach of the tool (the deepest kept when there are more than fit), and the
+  // nearest triangle to the tip overall when the tip may be inside.
   struct Hit {
     int tri;
-    double dist;
-    Vec3 w, p;
+    double dist;   // m, from the tool's point to the triangle's
+    Vec3 w, p, q;  // barycentric weights and point on the triangle; the tool's point closest to it
+    double phi;    // m, the depth it is pressed by
+    Vec3 n;        // its direction (unit), out of the organ
   };
   std::array<Hit, SpringState::kMaxContactTriangles> hits;
   int nhits = 0;
@@ -684,7 +793,9 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
     // Bounding-box distance first: most triangles are far.
     const Vec3 lo = a.cwiseMin(b).cwiseMin(q), hi = a.cwiseMax(b).cwiseMax(q);
     const double box_d2 = (c.cwiseMax(lo).cwiseMin(hi) - c).squaredNorm();
-    if (box_d2 >= r * r && (!search_inside || box_d2 > nearest_d2)) continue;
+    const double tool_box_d2 =
+        shaft ? (lo - tool_hi).cwiseMax(tool_lo - hi).cwiseMax(0.0).squaredNorm() : box_d2;
+    if (tool_box_d2 >= reach * reach && (!search_inside || box_d2 > nearest_d2)) continue;
     Vec3 w;
     const Vec3 p = closest_on_triangle(c, a, b, q, w);
     const double d2 = (c - p).squaredNorm();
@@ -701,18 +812,39 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
         nearest = static_cast<int>(t); nearest_cos = cosine; nearest_w = w; nearest_p = p;
       }
     }
-    if (d2 >= r * r) continue;
-    const Hit hit{static_cast<int>(t), std::sqrt(d2), w, p};
+    Hit hit{static_cast<int>(t), 0.0, w, p, c, 0.0, Vec3::Zero()};
+    if (shaft) {
+      if (tool_box_d2 >= reach * reach) continue;
+      hit.p = closest_segment_triangle(back, c, a, b, q, hit.q, hit.w);
+      hit.dist = (hit.q - hit.p).norm();
+      const Vec3 nf = (b - a).cross(q - a);
+      const double side = (hit.q - hit.p).dot(nf);
+      const bool over = hit.w.minCoeff() > 0;  // the shaft's point is over the triangle, not past an edge
+      if (hit.dist < r && side > 0) {
+        hit.phi = r - hit.dist;
+        hit.n = (hit.q - hit.p) / hit.dist;
+      } else if (behind > 0 && over && hit.dist < behind && side <= 0 && nf.squaredNorm() > 0) {
+        hit.phi = r + hit.dist;  // behind the face (or through it): pushed out along its normal
+        hit.n = nf.normalized();
+      } else {
+        continue;
+      }
+    } else {
+      if (d2 >= r * r) continue;
+      hit.dist = std::sqrt(d2);
+      hit.phi = r - hit.dist;
+    }
     if (nhits < SpringState::kMaxContactTriangles) {
       hits[static_cast<size_t>(nhits++)] = hit;
     } else {
       int far = 0;
-      for (int k = 1; k < nhits; ++k) if (hits[static_cast<size_t>(k)].dist > hits[static_cast<size_t>(far)].dist) far = k;
-      if (hit.dist < hits[static_cast<size_t>(far)].dist) hits[static_cast<size_t>(far)] = hit;
+      for (int k = 1; k < nhits; ++k) if (hits[static_cast<size_t>(k)].phi < hits[static_cast<size_t>(far)].phi) far = k;
+      if (hit.phi > hits[static_cast<size_t>(far)].phi) hits[static_cast<size_t>(far)] = hit;
     }
   }
+  // (A shaft that presses triangles is carried by them even when its tip is inside.)
   const bool inside = model.closed_surface && nearest >= 0 && nearest_cos < 0 &&
-                      (search_inside || nearest_d2 < r * r);
+                      (search_inside || nearest_d2 < r * r) && !(shaft && nhits > 0);
   // Contact vertices and their direction sums g_i (up to kMaxContactVertices).
   std::array<Vec3, SpringState::kMaxContactVertices> g;
   auto add = [&](int vertex, const Vec3& gi) {
@@ -734,28 +866,29 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
     double sum = 0;
     int used = 0;
     for (int k = 0; k < nhits; ++k) {
-      const Hit& hit = hits[static_cast<size_t>(k)];
-      if (!(hit.dist > 1e-12 * r)) continue;  // the centre on the surface: no direction (rare; next tick)
-      if (model.closed_surface) {  // only triangles the tool is in front of (not the back of a thin part)
-        const auto& T = net.triangles[static_cast<size_t>(hit.tri)];
-        const Vec3 nf = (s.x.row(T[1]) - s.x.row(T[0])).transpose().cross((s.x.row(T[2]) - s.x.row(T[0])).transpose());
-        if ((c - hit.p).dot(nf) < 0) continue;
+      Hit hit = hits[static_cast<size_t>(k)];
+      if (!shaft) {
+        if (!(hit.dist > 1e-12 * r)) continue;  // the centre on the surface: no direction (rare; next tick)
+        if (model.closed_surface) {  // only triangles the tool is in front of (not the back of a thin part)
+          const auto& T = net.triangles[static_cast<size_t>(hit.tri)];
+          const Vec3 nf = (s.x.row(T[1]) - s.x.row(T[0])).transpose().cross((s.x.row(T[2]) - s.x.row(T[0])).transpose());
+          if ((hit.q - hit.p).dot(nf) < 0) continue;
+        }
+        hit.n = (hit.q - hit.p) / hit.dist;
       }
-      sum += r - hit.dist;
-      depth = std::max(depth, r - hit.dist);
+      sum += hit.phi;
+      depth = std::max(depth, hit.phi);
       hits[static_cast<size_t>(used++)] = hit;
     }
     // Weights φ_t scaled so that Σ ω_t n_t is a unit vector: the tool feels exactly F along it.
     Vec3 resultant = Vec3::Zero();
-    for (int k = 0; k < used; ++k)
-      resultant += (r - hits[static_cast<size_t>(k)].dist) / hits[static_cast<size_t>(k)].dist *
-                   (c - hits[static_cast<size_t>(k)].p);
+    for (int k = 0; k < used; ++k) resultant += hits[static_cast<size_t>(k)].phi * hits[static_cast<size_t>(k)].n;
     sum = resultant.norm();
     if (sum > 0)
       for (int k = 0; k < used; ++k) {
         const Hit& hit = hits[static_cast<size_t>(k)];
-        const Vec3 n = (c - hit.p) / hit.dist;
-        const double weight = (r - hit.dist) / sum;
+        const Vec3 n = hit.n;
+        const double weight = hit.phi / sum;
         const auto& T = net.triangles[static_cast<size_t>(hit.tri)];
         for (int q = 0; q < 3; ++q)
           if (hit.w[q] > 0) add(T[static_cast<size_t>(q)], weight * hit.w[q] * n);
@@ -1225,11 +1358,21 @@ size_t spring_pass_scratch(const SpringModel& model) { return 16 * model.network
 
 namespace {
 
+// SpringModelOptions::directional_correction, unless exact_iterations is on (its residual assumes the
+// predictor's own right-hand side; the two are alternatives).
+bool directional(const SpringModel& model) noexcept {
+  return model.options.directional_correction && model.options.exact_iterations <= 0;
+}
+
 // The scalar pass (forces.h) over the springs from e on, one at a time: vertex i's position at
 // x[stride i …], its velocity at v[stride i …], its sums at f and r the same way. The reference
 // pass on the (n x 3) arrays (stride 3) and the vectorised passes' last s mod 4 springs on the
 // padded layout (stride 8: v = x + 4, r = f + 4).
 // KP: each spring's predictor weight (SpringModel::predictor_stiffness) for the −h K v term.
+// Directional (SpringModelOptions::directional_correction): the spring's share of that term is its
+// exact stiffness k[uuᵀ + max(0, 1 − L/l)(I − uuᵀ)] instead of k I, i.e. r_i += h KP w − μ (w − (u·w) u)
+// with μ = h k min(1, L/l), w = v_j − v_i (the volume term's share of KP stays isotropic).
+template <bool Directional>
 void spring_loop(const SpringNetwork& net, const double* KP, double h, size_t e, size_t stride, const double* xd,
                  const double* vd, double* fd, double* rd) noexcept {
   for (; e < net.springs.size(); ++e) {
@@ -1237,9 +1380,20 @@ void spring_loop(const SpringNetwork& net, const double* KP, double h, size_t e,
     const double dx = xd[j] - xd[i], dy = xd[j + 1] - xd[i + 1], dz = xd[j + 2] - xd[i + 2];
     const double wx = vd[j] - vd[i], wy = vd[j + 1] - vd[i + 1], wz = vd[j + 2] - vd[i + 2];
     const double kh = h * KP[e];
-    rd[i] += kh * wx; rd[i + 1] += kh * wy; rd[i + 2] += kh * wz;
-    rd[j] -= kh * wx; rd[j + 1] -= kh * wy; rd[j + 2] -= kh * wz;
     const double l = std::sqrt(dx * dx + dy * dy + dz * dz);
+    if constexpr (Directional) {
+      double rx = kh * wx, ry = kh * wy, rz = kh * wz;
+      if (l > 0) {
+        const double mu = h * net.stiffness[e] * std::min(1.0, net.rest_length[e] / l);
+        const double nu = mu * (wx * dx + wy * dy + wz * dz) / (l * l);
+        rx += nu * dx - mu * wx; ry += nu * dy - mu * wy; rz += nu * dz - mu * wz;
+      }
+      rd[i] += rx; rd[i + 1] += ry; rd[i + 2] += rz;
+      rd[j] -= rx; rd[j + 1] -= ry; rd[j + 2] -= rz;
+    } else {
+      rd[i] += kh * wx; rd[i + 1] += kh * wy; rd[i + 2] += kh * wz;
+      rd[j] -= kh * wx; rd[j + 1] -= kh * wy; rd[j + 2] -= kh * wz;
+    }
     if (!(l > 0)) continue;
     const double inv_l = 1.0 / l;
     const double dvu = (wx * dx + wy * dy + wz * dz) * inv_l;
@@ -1248,9 +1402,10 @@ void spring_loop(const SpringNetwork& net, const double* KP, double h, size_t e,
     fd[j] -= g * dx; fd[j + 1] -= g * dy; fd[j + 2] -= g * dz;
   }
 }
+template <bool Directional = false>
 void spring_pass_tail(const SpringNetwork& net, const double* KP, double h, size_t e, const double* xv,
                       double* fr) noexcept {
-  spring_loop(net, KP, h, e, 8, xv, xv + 4, fr, fr + 4);
+  spring_loop<Directional>(net, KP, h, e, 8, xv, xv + 4, fr, fr + 4);
 }
 
 // (Σ a0, Σ a1, Σ a2, Σ a3): the four horizontal sums in one register.
@@ -1265,7 +1420,8 @@ __attribute__((target("avx2,fma"), always_inline)) inline __m256d hsum4(__m256d 
 // 64-byte line, so each vertex is one cache line, its position and velocity aligned 256-bit loads
 // and no lane is masked); fr the same for the springs' sums, f then r. The sums go to fr one vertex
 // at a time in spring order, so springs sharing a vertex in a group of four are summed like the
-// scalar loop's.
+// scalar loop's. Directional: the −h K v term with each spring's exact stiffness (spring_loop).
+template <bool Directional = false>
 __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& net, const double* KP, double h,
                                                            const double* xv, double* fr) noexcept {
   const size_t s = net.springs.size();
@@ -1293,21 +1449,32 @@ __attribute__((target("avx2,fma"))) void spring_pass_avx2(const SpringNetwork& n
     __m256d g = _mm256_add_pd(_mm256_mul_pd(k, _mm256_sub_pd(l, _mm256_loadu_pd(L + e))),
                               _mm256_mul_pd(_mm256_loadu_pd(C + e), dvu));
     g = _mm256_and_pd(_mm256_mul_pd(g, inv_l), ok);
-    const __m256d kh = _mm256_mul_pd(hv, _mm256_loadu_pd(KP + e));
+    __m256d kh = _mm256_mul_pd(hv, _mm256_loadu_pd(KP + e));
+    __m256d nu = zero;
+    if constexpr (Directional) {
+      // μ = h k min(1, L/l), ν = μ (d·w)/l²: r += (h KP − μ) w + ν d (zero correction where l = 0).
+      const __m256d mu = _mm256_and_pd(
+          _mm256_mul_pd(_mm256_mul_pd(hv, k), _mm256_min_pd(one, _mm256_mul_pd(_mm256_loadu_pd(L + e), inv_l))), ok);
+      nu = _mm256_and_pd(_mm256_mul_pd(_mm256_mul_pd(mu, dw), _mm256_mul_pd(inv_l, inv_l)), ok);
+      kh = _mm256_sub_pd(kh, mu);
+    }
     const __m256d gq[4] = {_mm256_permute4x64_pd(g, 0x00), _mm256_permute4x64_pd(g, 0x55),
                            _mm256_permute4x64_pd(g, 0xAA), _mm256_permute4x64_pd(g, 0xFF)};
     const __m256d kq[4] = {_mm256_permute4x64_pd(kh, 0x00), _mm256_permute4x64_pd(kh, 0x55),
                            _mm256_permute4x64_pd(kh, 0xAA), _mm256_permute4x64_pd(kh, 0xFF)};
+    [[maybe_unused]] const __m256d nq[4] = {_mm256_permute4x64_pd(nu, 0x00), _mm256_permute4x64_pd(nu, 0x55),
+                                            _mm256_permute4x64_pd(nu, 0xAA), _mm256_permute4x64_pd(nu, 0xFF)};
     for (int q = 0; q < 4; ++q) {
       const __m256d fd = _mm256_mul_pd(gq[q], d[q]);
-      const __m256d rw = _mm256_mul_pd(kq[q], w[q]);
+      __m256d rw = _mm256_mul_pd(kq[q], w[q]);
+      if constexpr (Directional) rw = _mm256_fmadd_pd(nq[q], d[q], rw);
       _mm256_store_pd(fr + a[q] + 4, _mm256_add_pd(_mm256_load_pd(fr + a[q] + 4), rw));
       _mm256_store_pd(fr + b[q] + 4, _mm256_sub_pd(_mm256_load_pd(fr + b[q] + 4), rw));
       _mm256_store_pd(fr + a[q], _mm256_add_pd(_mm256_load_pd(fr + a[q]), fd));
       _mm256_store_pd(fr + b[q], _mm256_sub_pd(_mm256_load_pd(fr + b[q]), fd));
     }
   }
-  spring_pass_tail(net, KP, h, e, xv, fr);
+  spring_pass_tail<Directional>(net, KP, h, e, xv, fr);
 }
 
 #pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see all_pairs_avx512
@@ -1474,7 +1641,10 @@ double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const Ro
   pack_padded(n, x.data(), v.data(), xv, fr);
   const bool uniform = model.uniform_stiffness > 0 && model.uniform_damping && !model.volume_term;
   const double* KP = model.predictor_stiffness.data();
-  if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512()) {
+  if (directional(model)) {
+    // The directional term has an AVX2 form only (the AVX-512 pass packs (g d, kh w) in one register).
+    spring_pass_avx2<true>(net, KP, model.options.dt, xv, fr);
+  } else if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512()) {
     if (uniform) spring_pass_avx512<true>(net, KP, model.options.dt, xv, fr, model.uniform_stiffness, net.damping[0]);
     else spring_pass_avx512<false>(net, KP, model.options.dt, xv, fr);
   } else {
@@ -1492,8 +1662,12 @@ void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat
                                           SpringKernel kernel) noexcept {
   const size_t n = model.network.size();
   if (!vectorised || kernel == SpringKernel::scalar || !spring_pass_padded_available(model) || scratch == nullptr) {
-    spring_loop(model.network, model.predictor_stiffness.data(), model.options.dt, 0, 3, x.data(), v.data(), f.data(),
-                r.data());
+    if (directional(model))
+      spring_loop<true>(model.network, model.predictor_stiffness.data(), model.options.dt, 0, 3, x.data(), v.data(),
+                        f.data(), r.data());
+    else
+      spring_loop<false>(model.network, model.predictor_stiffness.data(), model.options.dt, 0, 3, x.data(), v.data(),
+                         f.data(), r.data());
     if (model.volume_term) add_volume_forces(model.network, x.data(), 3, f.data(), 3);
     return;
   }

@@ -207,6 +207,7 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
   o.grasp_stiffness = m.grasp_stiffness;
   o.single_precision = m.single_precision;
   o.exact_iterations = m.exact_iterations;
+  o.directional_correction = m.directional_correction;
   const std::filesystem::path base = scene.file.has_parent_path() ? scene.file.parent_path() : std::filesystem::path{};
   if (!m.predictor.empty()) {
     const std::filesystem::path p = m.predictor;
