@@ -8,9 +8,11 @@
 #include <palpate/outcome.h>
 #include <palpate/safety.h>
 #include <palpate/scene.h>
+#include <palpate/tissue.h>
 
 #include <Eigen/Core>
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -33,6 +35,37 @@ class ContactJacobianSource {
   virtual bool contact_jacobian(Eigen::Matrix3d& dforce_dposition) const noexcept = 0;
 };
 
+// Optional for a Tissue model (issue 24): the compliance of the organ's surface near the tool, so a
+// multi-rate loop can solve the contact itself every tick between the model's steps instead of
+// extrapolating a force. After each step the model describes the surface points within reach of
+// the tool as they would be at the end of its next step without any contact force (free_position),
+// the triangles over them, and their compliance W: a load L_j (N) on point j moves point i by
+// W_ij L_j (m), the same for each coordinate. The haptic thread then solves, every tick, the
+// penalty contact of the tool's sphere with these points (src/haptics/contact.h, solve_patch).
+struct ContactPatch {
+  static constexpr int kMaxPoints = 64;
+  static constexpr int kMaxTriangles = 128;
+  int point_count = 0;
+  int triangle_count = 0;
+  std::array<Vec3, kMaxPoints> free_position{};                  // m
+  std::array<std::array<int, 3>, kMaxTriangles> triangle{};        // indices into the points, outward (CCW)
+  std::array<double, static_cast<size_t>(kMaxPoints) * kMaxPoints> compliance{};  // m/N, W row-major
+                                                                                   // (point_count x point_count)
+  double stiffness = 0;       // N/m, the model's contact penalty k_c (force per metre of depth)
+  Vec3 centre = Vec3::Zero(); // m, the tool's centre the patch was gathered around
+  double reach = 0;           // m, the patch holds every surface triangle the tool's sphere can touch
+                              // while its centre stays within reach of `centre`
+};
+
+class ContactComplianceSource {
+ public:
+  virtual ~ContactComplianceSource() = default;
+  // Physics thread, right after step(tool, dt): fill `out` around the tool. False when the model
+  // has none this step (then the loop renders the linearised contact, ContactJacobianSource or the
+  // secant). May compute and cache (allocation-free once warm), never called on the haptic thread.
+  virtual bool contact_patch(const ToolState& tool, double dt, ContactPatch& out) noexcept = 0;
+};
+
 // A tool's force law other than the tissues' contact: evaluated on the haptic thread every tick
 // (noexcept, no allocation, no locks), the force on the tool (N) at its pose and the run's time (s).
 // The ultrasound probe's is NeckCompression (palpate/ultrasound.h).
@@ -53,6 +86,10 @@ struct LoopTissue {
   Tissue* tissue = nullptr;  // not owned; must outlive the loop
   double physics_dt = 0;     // s; 0 = every tick on the haptic thread
 };
+
+// The physics period a scene gives a tissue (s): 1 / material.physics_rate for a mass-spring organ
+// that sets one, else 0 (every tick on the haptic thread).
+double scene_physics_dt(const TissueDef& tissue) noexcept;
 
 struct LoopSettings {
   double dt = 0.001;                  // s, the haptic tick

@@ -11,7 +11,10 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <new>
+#include <span>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -306,6 +309,67 @@ Vec3 linear_momentum(const SpringModel& model, const SpringState& state) noexcep
 Vec3 angular_momentum(const SpringModel& model, const SpringState& state) noexcept;        // about 0
 double max_displacement(const SpringModel& model, const SpringState& state) noexcept;      // m
 
+struct ContactPatch;  // palpate/haptics.h
+
+// The compliance of an organ's vertices to loads held over one step (issue 24; docs/haptics.md,
+// Multi-rate): a force L_j (N) on vertex j enters the step's right-hand side as h L_j, so the step
+// moves vertex i by W_ij L_j more, W = h² A⁻¹ (m/N), the same for x, y and z (A is one n x n matrix
+// for the three). Exact for the predictor's own step (not an approximation of a warped stiffness):
+// with the sparse factor A = Pᵀ L D Lᵀ P, (A⁻¹)_ij = z_iᵀ z_j where z_i = D^-½ L⁻¹ P e_i is nonzero
+// only on the elimination-tree path from vertex i's column to the root, so each vertex costs one
+// forward substitution along its path (not a full solve); z_i is cached per vertex (least recently
+// used out first) and a block of W is Zᵀ Z over the union of the paths. With the dense predictor
+// W_ij is read from A⁻¹. Anchored vertices have W = 0. Not for the haptic thread (it allocates when
+// it meets a longer union than before).
+class SpringCompliance {
+ public:
+  // capacity: the most vertices whose z_i are kept.
+  explicit SpringCompliance(const SpringModel& model, int capacity = 1024);
+  // The model has a predictor (sparse or dense) and this works.
+  bool available() const noexcept { return available_; }
+  // W (m/N) among `vertices` into w, row-major (count x count).
+  void block(std::span<const int> vertices, std::span<double> w);
+  // Fill `patch` from the state after a step (docs/haptics.md, Multi-rate): the surface vertices
+  // nearest the tool's centre within reach of its sphere plus `margin` (m) (at most
+  // ContactPatch::kMaxPoints), the surface triangles over them, W among them, and their free
+  // positions: the positions after the step less the contact load's share, x_i − Σ_j W_ij L_j (L_j
+  // the contact force on vertex j that the step ended with). False when the model has no surface
+  // triangles or predictor, or no surface vertex is within reach.
+  bool contact_patch(const SpringState& state, const ToolState& tool, double margin, ContactPatch& patch);
+  // The vertices of the last patch, in its point order.
+  const std::vector<int>& patch_vertices() const noexcept { return patch_vertices_; }
+  std::uint64_t computed() const noexcept { return computed_; }  // vertices' z_i computed so far
+  size_t cached() const noexcept { return cached_; }
+
+ private:
+  void compute(std::span<const int> vertices);
+  const SpringModel& model_;
+  bool available_ = false;
+  int n_ = 0;
+  std::vector<int> parent_;             // (n) elimination-tree parent of each permuted column, −1 at a root
+  struct Slot {
+    int vertex = -1;
+    std::uint64_t used = 0;
+    std::vector<int> index;    // ascending permuted columns of the path
+    std::vector<double> z;     // z_i there
+  };
+  std::vector<Slot> slots_;
+  std::vector<int> slot_of_;            // (n) slot of a vertex, −1 when not cached
+  std::vector<double> y_;               // (8n) forward substitution of up to eight vertices at once
+  std::vector<int> mark_, union_;       // (n) scratch
+  std::vector<double> dense_;           // union x count, for the block's product
+  std::vector<int> surface_;            // vertices of the surface triangles
+  std::vector<int> tri_start_, tri_of_; // CSR: surface triangles of each vertex
+  double max_edge_ = 0;                 // m, longest surface edge at rest
+  std::vector<std::pair<double, int>> near_;  // scratch: (distance, vertex)
+  std::vector<int> local_;              // (n) index of a vertex in the patch being built, −1 if none
+  std::vector<int> patch_vertices_;     // the last patch's vertices (W reused when they repeat)
+  std::vector<double> patch_w_;
+  std::uint64_t clock_ = 0, computed_ = 0;
+  size_t cached_ = 0;
+};
+
+
 // Predictor files (a versioned binary format, docs/models/mass-spring.md).
 // FNV-1a 64 of the network's rest positions and topology: the "mesh" a predictor was made for.
 std::uint64_t mesh_hash(const SpringNetwork& network);
@@ -334,6 +398,11 @@ struct SpringTissueSetup {
   PredictorPolicy policy = PredictorPolicy::load_or_compute;
 };
 Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index);
+
+// A scene tissue over a built model (tests, benchmarks, embedding programs): step(tool, dt) runs
+// dt / model.options.dt steps; it offers the loop its compliant contact patch
+// (ContactComplianceSource, palpate/haptics.h) when dt is one step.
+std::unique_ptr<Tissue> make_spring_tissue(std::string name, SpringModel model);
 
 // A network from a mesh file (tetrahedral formats by extension, else a surface).
 Result<SpringNetwork> spring_network_from_file(const MeshRef& mesh, const SpringNetworkOptions& options);

@@ -28,6 +28,9 @@ struct SpringMaterialDef {
   bool single_precision = false;   // per-tick predictor (and uniform all-pairs forces) in float
   int exact_iterations = 0;        // conjugate-gradient steps toward exact backward Euler per tick
   bool directional_correction = false;  // the right-hand side's −hKv with each spring's exact stiffness
+  double physics_rate = 0.0;       // Hz; > 0: the organ steps on its own thread at this rate (its
+                                   // predictor built for 1/physics_rate s), the haptic thread solving
+                                   // the contact against its compliance every tick (docs/haptics.md)
 };
 
 std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*);

@@ -48,6 +48,8 @@ struct TissueSnapshot {
 
 // A tissue model instance wired into a scene. `step` is the 1 kHz path: noexcept, no allocation,
 // no locks, no I/O. Numerical trouble is recovered inside (state reset, zero force, an event).
+class ContactComplianceSource;  // palpate/haptics.h
+
 class Tissue {
  public:
   virtual ~Tissue() = default;
@@ -74,6 +76,8 @@ class Tissue {
   virtual void set_layers_above(std::span<Tissue* const> above) { (void)above; }
   // This tissue as a charged-particle layer for that coupling, or null for other models.
   virtual const ChargedLayer* charged_layer() const noexcept { return nullptr; }
+  // This tissue's compliant contact patch for a multi-rate loop (palpate/haptics.h), or null.
+  virtual ContactComplianceSource* contact_compliance() noexcept { return nullptr; }
 };
 
 // Tell every tissue which ones lie above it: tissues[i] is pressed by tissues[0 .. i-1]. Call it

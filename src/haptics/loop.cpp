@@ -15,6 +15,9 @@
 #include <cmath>
 #include <thread>
 
+#include <pthread.h>
+#include <sched.h>
+
 namespace palpate {
 
 namespace {
@@ -498,11 +501,31 @@ Status HapticLoop::start() {
   Impl& m = *impl_;
   if (!m.s.realtime) return Error{"haptic loop: built for headless runs (settings.realtime = false)"};
   if (m.running.load() || m.thread.joinable()) return Error{"haptic loop: already started"};
+  // Both cores (issue 24): with a multi-rate tissue on a machine of two CPUs or more, the haptic
+  // thread runs on the first and the physics threads on the others, so a physics step never takes
+  // the haptic thread's core. Best effort: a refused affinity (a cgroup without those CPUs) leaves
+  // the threads to the scheduler.
+  const unsigned ncpu = std::thread::hardware_concurrency();
+  bool pinned = false;
+  int next_cpu = 1;
   for (auto& sl : m.slots)
-    if (sl.worker) sl.worker->start();
+    if (sl.worker) {
+      if (ncpu >= 2) {
+        sl.worker->set_cpu(next_cpu);
+        next_cpu = next_cpu + 1 < static_cast<int>(ncpu) ? next_cpu + 1 : 1;
+        pinned = true;
+      }
+      sl.worker->start();
+    }
   m.stop_requested.store(false);
   m.running.store(true);
   m.thread = std::thread([&m] { m.thread_main(); });
+  if (pinned) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(0, &set);
+    (void)pthread_setaffinity_np(m.thread.native_handle(), sizeof(set), &set);
+  }
   return {};
 }
 

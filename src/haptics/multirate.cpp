@@ -8,17 +8,27 @@
 #include <algorithm>
 #include <cmath>
 
+#include <pthread.h>
+#include <sched.h>
+
 namespace palpate {
 
+double scene_physics_dt(const TissueDef& t) noexcept {
+  return t.model == "mass_spring" && t.spring.physics_rate > 0 ? 1.0 / t.spring.physics_rate : 0.0;
+}
+
 PhysicsWorker::PhysicsWorker(Tissue& tissue, int index, double physics_dt, double haptic_dt,
-                             double max_stiffness, bool threaded)
+                             double max_stiffness, bool threaded, MultiRateContact method)
     : tissue_(tissue),
       index_(index),
       physics_dt_(physics_dt),
       haptic_dt_(haptic_dt),
       threaded_(threaded),
       estimator_(max_stiffness),
+      max_stiffness_(max_stiffness),
+      method_(method),
       event_scratch_(64) {
+  if (method_ == MultiRateContact::compliance) compliance_ = tissue_.contact_compliance();
   every_ = std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(physics_dt / haptic_dt)));
   PhysicsSnapshot init;
   init.figures.assign(tissue.figure_names().size(), 0.0);
@@ -32,6 +42,12 @@ void PhysicsWorker::start() {
   if (!threaded_ || thread_.joinable()) return;
   stop_.store(false);
   thread_ = std::thread([this] { physics_main(); });
+  if (cpu_ >= 0 && cpu_ < CPU_SETSIZE) {  // best effort: a machine with one CPU, or a cgroup without it, refuses
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(cpu_, &set);
+    (void)pthread_setaffinity_np(thread_.native_handle(), sizeof(set), &set);
+  }
 }
 
 void PhysicsWorker::stop() {
@@ -54,7 +70,9 @@ void PhysicsWorker::physics_step(const ToolState& tool) noexcept {
     s.contact.x0 = tool.tip;
     s.contact.f0 = f;
     s.contact.jacobian = estimator_.jacobian();
+    s.has_patch = compliance_ && compliance_->contact_patch(tool, physics_dt_, s.patch);
   } else {
+    s.has_patch = false;
     estimator_.reset();
     s.contact = ContactLinearisation{};
   }
@@ -103,6 +121,15 @@ TickFault PhysicsWorker::render(const ToolState& tool, std::int64_t now_ns, doub
   }
   if (s.seq == 0) return TickFault::none;
   if (!s.ok) return TickFault::step_failed;
+  if (s.has_patch) {
+    const PatchContact c = solve_patch(s.patch, tool.tip, tool.radius, max_stiffness_, patch_scratch_);
+    if (c.valid) {
+      force = c.force;
+      ++patch_ticks_;
+      return TickFault::none;
+    }
+    ++patch_fallbacks_;
+  }
   force = s.contact.force_at(tool.tip);
   return TickFault::none;
 }

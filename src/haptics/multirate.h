@@ -8,6 +8,7 @@
 #include <palpate/tissue.h>
 
 #include "haptics/contact.h"
+#include "haptics/patch_contact.h"
 #include "haptics/spsc_ring.h"
 #include "haptics/triple_buffer.h"
 
@@ -26,6 +27,15 @@ struct PhysicsSnapshot {
   std::int64_t published_ns = 0;  // CLOCK_MONOTONIC when published
   bool ok = true;                 // false when the step's force was not finite
   std::vector<double> figures;    // the tissue's figures (sized once, filled in place)
+  bool has_patch = false;         // the model's compliant contact patch (ContactComplianceSource)
+  ContactPatch patch;
+};
+
+// How the haptic thread renders a multi-rate tissue's contact between its steps.
+enum class MultiRateContact {
+  compliance,  // solve the contact against the model's compliant patch every tick when it offers
+               // one (ContactComplianceSource), else as `linearised`
+  linearised,  // F0 + J·(x − x0), J from ContactJacobianSource or the secant (Broyden) estimate
 };
 
 class PhysicsWorker {
@@ -33,7 +43,7 @@ class PhysicsWorker {
   // `max_stiffness` (N/m): the rendered stiffness's bound (the device's). `threaded`: false steps
   // inline from render() every physics_dt/dt ticks (headless, deterministic).
   PhysicsWorker(Tissue& tissue, int index, double physics_dt, double haptic_dt, double max_stiffness,
-                bool threaded);
+                bool threaded, MultiRateContact method = MultiRateContact::compliance);
   ~PhysicsWorker();
   PhysicsWorker(const PhysicsWorker&) = delete;
   PhysicsWorker& operator=(const PhysicsWorker&) = delete;
@@ -51,6 +61,12 @@ class PhysicsWorker {
   // Haptic thread: move tissue events the physics side queued into `out`.
   size_t drain_events(std::span<TissueEvent> out) noexcept;
   std::uint64_t physics_steps() const noexcept { return steps_.load(std::memory_order_relaxed); }
+  // Haptic ticks rendered from the compliant patch, and those that fell back to the linearised
+  // contact although a patch was published (the tool outside its reach). Haptic-thread counters.
+  std::uint64_t patch_ticks() const noexcept { return patch_ticks_; }
+  std::uint64_t patch_fallbacks() const noexcept { return patch_fallbacks_; }
+  // Pin the physics thread to this CPU (best effort, before start(); -1: leave it to the OS).
+  void set_cpu(int cpu) noexcept { cpu_ = cpu; }
 
  private:
   void physics_main() noexcept;
@@ -63,6 +79,12 @@ class PhysicsWorker {
   std::uint64_t every_ = 1;   // inline: step every this many ticks
   std::uint64_t tick_ = 0;    // inline: haptic ticks seen
   ContactEstimator estimator_;
+  double max_stiffness_;
+  MultiRateContact method_;
+  ContactComplianceSource* compliance_ = nullptr;
+  PatchScratch patch_scratch_;            // haptic thread
+  std::uint64_t patch_ticks_ = 0, patch_fallbacks_ = 0;
+  int cpu_ = -1;
   TripleBuffer<ToolState> tool_in_;
   TripleBuffer<PhysicsSnapshot> out_;
   SpscRing<TissueEvent> events_{256, 1};

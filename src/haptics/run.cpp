@@ -253,7 +253,9 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   ls.outcome = build_outcome_model(scene);
   std::vector<LoopTissue> lt;
   for (size_t i = 0; i < tissues.size(); ++i)
-    lt.push_back({tissues[i].get(), i < options.physics_dt.size() ? options.physics_dt[i] : 0.0});
+    lt.push_back({tissues[i].get(), i < options.physics_dt.size() ? options.physics_dt[i]
+                                    : i < scene.tissues.size()    ? scene_physics_dt(scene.tissues[i])
+                                                                  : 0.0});  // tissues the caller built
   std::vector<LoopTool> extra;
   if (probe_device) extra.push_back({"probe", probe_device.get(), probe_model.get(), scene.probe->device.ramp_in});
   auto built = HapticLoop::create(dev, std::move(lt), ls, std::move(extra));

@@ -354,7 +354,8 @@ void Viewer::relink_layers() {
 
 Status Viewer::start_loop() {
   std::vector<LoopTissue> list;
-  for (auto& t : tissues_) list.push_back(LoopTissue{t.get(), 0.0});
+  for (size_t i = 0; i < tissues_.size(); ++i)
+    list.push_back(LoopTissue{tissues_[i].get(), i < scene_.tissues.size() ? scene_physics_dt(scene_.tissues[i]) : 0.0});
   LoopSettings s;
   s.dt = scene_.dt;
   s.realtime = true;

@@ -42,6 +42,9 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
        "the predictor's right-hand side with each spring's exact (directional) stiffness: close to backward "
        "Euler's damping of transverse motion with no extra solve (tet and edge networks; not with "
        "exact_iterations)"},
+      {"physics_rate", &D::physics_rate, 0.0, 1000.0, "Hz",
+       "when > 0, the organ steps on its own thread at this rate (an organ too large for 1 ms) and the haptic "
+       "thread solves the contact against its compliance every tick; `palpate run --physics-rate` overrides it"},
   };
   return table;
 }

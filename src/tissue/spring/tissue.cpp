@@ -1,5 +1,6 @@
 // tissue.cpp — the mass-spring-damper model wired as a scene tissue: set-up from a TissueDef,
 // the Tissue interface (step, figures, events, snapshot, reset) over step() of spring.h.
+#include <palpate/haptics.h>
 #include <palpate/spring.h>
 
 #include "tissue/factory.h"
@@ -7,6 +8,7 @@
 
 #include <array>
 #include <cmath>
+#include <memory>
 
 namespace palpate {
 
@@ -25,7 +27,7 @@ const std::string kFigureNames[] = {"force_N",          "force_x_N",        "for
                                     "max_displacement_m", "kinetic_energy_J", "anchor_force_N", "contacts",
                                     "resets"};
 
-class SpringTissue final : public Tissue {
+class SpringTissue final : public Tissue, public ContactComplianceSource {
  public:
   SpringTissue(std::string name, int index, SpringModel model)
       : name_(std::move(name)), index_(index), model_(std::move(model)), state_(make_state(model_)) {}
@@ -49,6 +51,21 @@ class SpringTissue final : public Tissue {
   }
 
   bool last_step_failed() const noexcept override { return failed_; }
+  ContactComplianceSource* contact_compliance() noexcept override { return this; }
+
+  // The compliant patch for a multi-rate loop (issue 24): only when one step() is one step of the
+  // predictor (its compliance is that step's), built on the physics thread at its first call.
+  bool contact_patch(const ToolState& tool, double dt, ContactPatch& out) noexcept override {
+    if (failed_ || std::lround(dt / model_.options.dt) != 1) return false;
+    try {
+      if (!compliance_) compliance_ = std::make_unique<SpringCompliance>(model_);
+      // Reach: where the tool can go before the next step, twice over, and at least a millimetre.
+      const double margin = std::max(0.001, 2.0 * tool.velocity.norm() * dt);
+      return compliance_->contact_patch(state_, tool, margin, out);
+    } catch (...) {  // out of memory: the loop renders the linearised contact instead
+      return false;
+    }
+  }
 
   std::span<const std::string> figure_names() const override { return kFigureNames; }
 
@@ -103,11 +120,16 @@ class SpringTissue final : public Tissue {
   SpringModel model_;
   SpringState state_;
   bool failed_ = false;  // the last step() reset the state
+  std::unique_ptr<SpringCompliance> compliance_;
   std::array<TissueEvent, 64> events_{};
   size_t head_ = 0, count_ = 0;
 };
 
 }  // namespace
+
+std::unique_ptr<Tissue> make_spring_tissue(std::string name, SpringModel model) {
+  return std::make_unique<SpringTissue>(std::move(name), 0, std::move(model));
+}
 
 Result<SpringNetwork> spring_network_from_file(const MeshRef& ref, const SpringNetworkOptions& o) {
   const std::string where = ref.file.string();
@@ -146,9 +168,24 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
   if (t.mesh) {
     net = spring_network_from_file(*t.mesh, *net_opt);
     if (!net) return Error{where + ": " + net.error().message};
+  } else if (t.patch && t.patch->shape == "sphere") {
+    // A solid ball (a large organ made at load: issue 24's scene): the tets of a grid of `spacing`
+    // whose centroids lie within `radius`, centred at `center`. With no anchors listed it rests on
+    // its bottom cap: the vertices in the lowest 5 % of its height are held.
+    TetMesh ball = spring::make_tet_ball(t.patch->radius, t.patch->spacing);
+    if (ball.V.rows() == 0) return Error{where + ": the sphere patch holds no tetrahedra (radius < spacing?)"};
+    const Vec3 mid = 0.5 * (ball.V.colwise().minCoeff() + ball.V.colwise().maxCoeff()).transpose();
+    translate(ball.V, t.patch->center - mid);
+    if (t.anchors.empty()) {
+      const double lo = ball.V.col(1).minCoeff(), hi = ball.V.col(1).maxCoeff();
+      for (Eigen::Index i = 0; i < ball.V.rows(); ++i)
+        if (ball.V(i, 1) < lo + 0.05 * (hi - lo)) net_opt->anchors.push_back(static_cast<int>(i));
+    }
+    net = make_spring_network(ball, *net_opt, where);
+    if (!net) return net.error();
   } else if (t.patch) {
     if (t.patch->shape != "flat")
-      return Error{where + ": a mass_spring patch must be flat (shape '" + t.patch->shape + "'); use a mesh for other shapes"};
+      return Error{where + ": a mass_spring patch must be flat or a sphere (shape '" + t.patch->shape + "'); use a mesh for other shapes"};
     net = make_spring_network(spring::make_sheet(*t.patch), *net_opt, where);
     if (!net) return net.error();
   } else {
@@ -156,7 +193,7 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
   }
   setup.network = std::move(*net);
   SpringModelOptions& o = setup.options;
-  o.dt = scene.dt;
+  o.dt = m.physics_rate > 0 ? 1.0 / m.physics_rate : scene.dt;  // one step per physics period
   o.solver = *solver;
   o.point_damping = m.point_damping;
   o.gravity = m.gravity;

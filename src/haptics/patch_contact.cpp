@@ -1,0 +1,159 @@
+// patch_contact.cpp — the haptic thread's penalty contact against a compliant patch (issue 24).
+#include "haptics/patch_contact.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace palpate {
+
+namespace {
+
+// The point of triangle (a, b, c) closest to p and its barycentric weights (Ericson 2005, "Real-Time
+// Collision Detection", §5.1.5); the same as the mass-spring model's.
+Vec3 closest_point(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, Vec3& w) noexcept {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) { w = Vec3(1, 0, 0); return a; }
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) { w = Vec3(0, 1, 0); return b; }
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const double t = d1 / (d1 - d3);
+    w = Vec3(1 - t, t, 0);
+    return a + t * ab;
+  }
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) { w = Vec3(0, 0, 1); return c; }
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const double t = d2 / (d2 - d6);
+    w = Vec3(1 - t, 0, t);
+    return a + t * ac;
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    w = Vec3(0, 1 - t, t);
+    return b + t * (c - b);
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom, u = vc * denom;
+  w = Vec3(1 - v - u, v, u);
+  return a + v * ab + u * ac;
+}
+
+struct Geometry {
+  double depth = 0;             // Φ, m
+  Vec3 direction = Vec3::Zero();  // Σ ω_t n_t (unit when in contact)
+  int loaded = 0;               // points with g ≠ 0
+  bool behind = false;          // no triangle within r and the centre is behind the nearest one
+};
+
+// Φ, the unit direction and g at positions y (scratch.position); g into scratch.g for the loaded
+// points (zeroed first).
+Geometry contact_geometry(const ContactPatch& patch, const Vec3& c, double r, PatchScratch& s) noexcept {
+  Geometry out;
+  for (int i = 0; i < patch.point_count; ++i) s.g[static_cast<size_t>(i)].setZero();
+  Vec3 resultant = Vec3::Zero();
+  double nearest_d2 = std::numeric_limits<double>::infinity(), nearest_cos = 0;
+  struct Hit { int tri; double dist; Vec3 w, n; };
+  std::array<Hit, ContactPatch::kMaxTriangles> hits;
+  int nhits = 0;
+  for (int t = 0; t < patch.triangle_count; ++t) {
+    const auto& T = patch.triangle[static_cast<size_t>(t)];
+    const Vec3& a = s.position[static_cast<size_t>(T[0])];
+    const Vec3& b = s.position[static_cast<size_t>(T[1])];
+    const Vec3& q = s.position[static_cast<size_t>(T[2])];
+    Vec3 w;
+    const Vec3 p = closest_point(c, a, b, q, w);
+    const double d2 = (c - p).squaredNorm();
+    const Vec3 nf = (b - a).cross(q - a);
+    const double side = (c - p).dot(nf);
+    if (d2 < nearest_d2) {
+      nearest_d2 = d2;
+      const double len = nf.norm() * std::sqrt(d2);
+      nearest_cos = len > 0 ? side / len : 0.0;
+    }
+    if (d2 >= r * r || side < 0) continue;  // out of reach, or the back of the surface
+    const double d = std::sqrt(d2);
+    if (!(d > 1e-12 * r)) continue;  // the centre on the surface: no direction
+    hits[static_cast<size_t>(nhits++)] = Hit{t, d, w, (c - p) / d};
+    out.depth = std::max(out.depth, r - d);
+    resultant += (r - d) * hits[static_cast<size_t>(nhits - 1)].n;
+  }
+  if (nhits == 0) {
+    out.behind = nearest_d2 < std::numeric_limits<double>::infinity() && nearest_cos < 0;
+    return out;
+  }
+  const double sum = resultant.norm();
+  if (!(sum > 0)) return out;
+  out.direction = resultant / sum;
+  for (int k = 0; k < nhits; ++k) {
+    const Hit& h = hits[static_cast<size_t>(k)];
+    const double weight = (r - h.dist) / sum;
+    const auto& T = patch.triangle[static_cast<size_t>(h.tri)];
+    for (int q = 0; q < 3; ++q)
+      if (h.w[q] > 0) s.g[static_cast<size_t>(T[static_cast<size_t>(q)])] += weight * h.w[q] * h.n;
+  }
+  for (int i = 0; i < patch.point_count; ++i)
+    if (!s.g[static_cast<size_t>(i)].isZero(0)) s.loaded[static_cast<size_t>(out.loaded++)] = i;
+  return out;
+}
+
+}  // namespace
+
+PatchContact solve_patch(const ContactPatch& patch, const Vec3& centre, double radius, double max_stiffness,
+                         PatchScratch& s, int max_iterations) noexcept {
+  PatchContact out;
+  const int m = patch.point_count;
+  if (m <= 0 || m > ContactPatch::kMaxPoints || patch.triangle_count > ContactPatch::kMaxTriangles ||
+      !centre.allFinite() || !(radius > 0) || !((centre - patch.centre).norm() <= patch.reach))
+    return out;
+  const double k = std::min(patch.stiffness, std::max(0.0, max_stiffness));
+  const size_t M = static_cast<size_t>(m);
+  for (size_t i = 0; i < M; ++i) s.position[i] = patch.free_position[i];
+  double f = 0;
+  Geometry geo;
+  for (int it = 0; it < max_iterations; ++it) {
+    geo = contact_geometry(patch, centre, radius, s);
+    out.iterations = it + 1;
+    if (geo.behind) return out;  // inside the organ past the radius: not this solve's case
+    if (geo.loaded == 0) { f = 0; break; }
+    // w = gᵀ W g over the loaded points.
+    double w = 0;
+    for (int a = 0; a < geo.loaded; ++a) {
+      const size_t i = static_cast<size_t>(s.loaded[static_cast<size_t>(a)]);
+      for (int b = 0; b < geo.loaded; ++b) {
+        const size_t j = static_cast<size_t>(s.loaded[static_cast<size_t>(b)]);
+        w += patch.compliance[i * M + j] * s.g[i].dot(s.g[j]);
+      }
+    }
+    w = std::max(0.0, w);
+    double f_new = std::max(0.0, k * (geo.depth + w * f) / (1 + k * w));
+    // The geometry moves with the load (which triangles press, their weights): past the first
+    // iterations, half steps keep the iteration from cycling between two contact sets.
+    if (it >= 2) f_new = 0.5 * (f_new + f);
+    const bool converged = std::abs(f_new - f) <= 1e-9 * (1 + f_new);
+    f = f_new;
+    // The points under the load −F g: y_i = x_free,i − F Σ_j W_ij g_j.
+    for (size_t i = 0; i < M; ++i) {
+      Vec3 d = Vec3::Zero();
+      for (int b = 0; b < geo.loaded; ++b) {
+        const size_t j = static_cast<size_t>(s.loaded[static_cast<size_t>(b)]);
+        d += patch.compliance[i * M + j] * s.g[j];
+      }
+      s.position[i] = patch.free_position[i] - f * d;
+    }
+    if (converged) break;
+  }
+  out.force = f * geo.direction;
+  out.depth = f > 0 && k > 0 ? f / k : 0.0;
+  out.valid = out.force.allFinite();
+  if (!out.valid) out.force.setZero();
+  return out;
+}
+
+}  // namespace palpate

@@ -1,0 +1,192 @@
+// test_contact_compliance.cpp — issue 24: the exact compliance of a mass-spring organ's vertices
+// (SpringCompliance), the haptic thread's contact solve against it (solve_patch), and the
+// multi-rate force against the synchronous truth on the 11k organ.
+#include <palpate/haptics.h>
+#include <palpate/spring.h>
+
+#include "haptics/patch_contact.h"
+#include "haptics/render_error.h"
+#include "spring_fixtures.h"
+#include "tissue/spring/solve.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+using namespace palpate;
+using spring_test::block_network;
+using spring_test::must_build;
+
+namespace {
+
+SpringModelOptions options(SpringSolver solver, double dt) {
+  SpringModelOptions o;
+  o.solver = solver;
+  o.dt = dt;
+  return o;
+}
+
+// h² (A⁻¹)_ij from full solves with the model's factor: column j is A⁻¹ e_j.
+double reference_w(const SpringModel& model, int i, int j) {
+  const Eigen::Index n = static_cast<Eigen::Index>(model.network.size());
+  RowMat3d b = RowMat3d::Zero(n, 3), x(n, 3), scratch(n, 3);
+  b(j, 0) = 1.0;
+  spring::solve_columns(model.predictor, b, x, scratch);
+  return model.options.dt * model.options.dt * x(i, 0);
+}
+
+}  // namespace
+
+TEST(SpringCompliance, BlockIsTheStepsOwnCompliance) {
+  // W from the half-solves along elimination-tree paths equals h² A⁻¹ from full solves, to
+  // round-off, for vertices near and far apart; anchored vertices do not move (W = 0); symmetric.
+  const SpringModel model = must_build(block_network(7, 7, 7, 0.005, 100.0, 0.2, true), options(SpringSolver::sparse, 0.02));
+  SpringCompliance c(model, 16);
+  ASSERT_TRUE(c.available());
+  const std::vector<int> v = {300, 301, 342, 10, 200, 48, 0, 150, 151, 152, 99};  // 0 and 10 are anchored
+  std::vector<double> w(v.size() * v.size());
+  c.block(v, w);
+  double scale = 0;
+  for (size_t a = 0; a < v.size(); ++a) scale = std::max(scale, std::abs(w[a * v.size() + a]));
+  ASSERT_GT(scale, 0);
+  for (size_t a = 0; a < v.size(); ++a)
+    for (size_t b = 0; b < v.size(); ++b) {
+      const bool anchored = model.anchored[size_t(v[a])] || model.anchored[size_t(v[b])];
+      const double expect = anchored ? 0.0 : reference_w(model, v[a], v[b]);
+      EXPECT_NEAR(w[a * v.size() + b], expect, 1e-10 * scale) << v[a] << "," << v[b];
+      EXPECT_EQ(w[a * v.size() + b], w[b * v.size() + a]);
+    }
+  // More vertices than the cache holds: the least recently used go, and come back equal.
+  EXPECT_EQ(c.cached(), 11u);
+  std::vector<int> many;
+  for (int i = 100; i < 140; ++i) many.push_back(i);
+  std::vector<double> w2(many.size() * many.size());
+  c.block(std::span<const int>(many.data(), 16), std::span<double>(w2.data(), 256));
+  EXPECT_EQ(c.cached(), 16u);
+  const std::uint64_t before = c.computed();
+  std::vector<double> again(v.size() * v.size());
+  c.block(v, again);
+  EXPECT_GT(c.computed(), before);
+  for (size_t k = 0; k < w.size(); ++k) EXPECT_DOUBLE_EQ(again[k], w[k]);
+  // The dense predictor gives the same W.
+  const SpringModel dense = must_build(block_network(7, 7, 7, 0.005, 100.0, 0.2, true), options(SpringSolver::desbrun, 0.02));
+  SpringCompliance cd(dense);
+  std::vector<double> wd(v.size() * v.size());
+  cd.block(v, wd);
+  for (size_t k = 0; k < w.size(); ++k) EXPECT_NEAR(wd[k], w[k], 1e-9 * scale);
+}
+
+TEST(SpringCompliance, PatchReproducesTheStepsForceAtItsOwnPose) {
+  // At rest in contact (the tool held still until the force settles), the patch solved at the
+  // step's own tool pose gives back the model's force: the free positions plus W times that load
+  // are the positions the step ended with.
+  const SpringNetwork net = tet_ball_organ(8.0);
+  const SpringModel model = must_build(net, options(SpringSolver::sparse, 0.02));
+  SpringState s = make_state(model);
+  ProbeScript script = probe_script(net);
+  ToolState tool;
+  for (long k = 0; k <= 25; ++k) {  // pressed in over 0.5 s, 20 ms a step
+    tool = script.at(k * 20);
+    ASSERT_TRUE(step(model, s, &tool));
+  }
+  tool.velocity.setZero();
+  for (int k = 0; k < 100; ++k) ASSERT_TRUE(step(model, s, &tool));
+  ASSERT_GT(s.tool_force.norm(), 0.03);
+  SpringCompliance c(model);
+  auto patch = std::make_unique<ContactPatch>();
+  ASSERT_TRUE(c.contact_patch(s, tool, 0.001, *patch));
+  EXPECT_GT(patch->point_count, 10);
+  EXPECT_GT(patch->reach, 0.0005);
+  auto scratch = std::make_unique<PatchScratch>();
+  const PatchContact got = solve_patch(*patch, tool.tip, tool.radius, 1e9, *scratch);
+  ASSERT_TRUE(got.valid);
+  EXPECT_NEAR((got.force - s.tool_force).norm(), 0.0, 0.05 * s.tool_force.norm());  // 3.5 % measured
+  // Outside its reach the patch refuses (the loop falls back to the linearised contact).
+  EXPECT_FALSE(solve_patch(*patch, tool.tip + Vec3(patch->reach + 1e-4, 0, 0), tool.radius, 1e9, *scratch).valid);
+}
+
+TEST(PatchContact, RenderedStiffnessNeverExceedsTheDevices) {
+  // A patch stiffer than the device (k_c = 5000 N/m, device 1000 N/m): dF/dx along the normal,
+  // by finite differences over a press, stays at or below 1000 N/m; with a compliant patch it is
+  // k/(1 + k w) < k.
+  const SpringNetwork net = tet_ball_organ(8.0);
+  SpringModelOptions o = options(SpringSolver::sparse, 0.02);
+  o.contact_stiffness = 5000;
+  const SpringModel model = must_build(net, o);
+  SpringState s = make_state(model);
+  const ProbeScript script = probe_script(net);
+  ToolState tool = script.at(0);
+  tool.tip = script.top + Vec3(0, script.radius - 0.0005, 0);  // 0.5 mm into the top
+  SpringCompliance c(model);
+  auto patch = std::make_unique<ContactPatch>();
+  auto scratch = std::make_unique<PatchScratch>();
+  ASSERT_TRUE(c.contact_patch(s, tool, 0.004, *patch));
+  ASSERT_GT(patch->reach, 0.001);
+  double prev = 0, max_k = 0;
+  const double dy = 1.6 * patch->reach / 200;  // from 0.8 reach above to 0.8 reach below
+  for (int k = 0; k < 200; ++k) {
+    const Vec3 x = tool.tip + Vec3(0, 0.8 * patch->reach - dy * k, 0);
+    const PatchContact r = solve_patch(*patch, x, tool.radius, 1000.0, *scratch);
+    ASSERT_TRUE(r.valid) << k;
+    if (k > 0) max_k = std::max(max_k, (r.force.y() - prev) / dy);
+    prev = r.force.y();
+  }
+  EXPECT_GT(prev, 0.3);  // pressed about 1.5 mm
+  EXPECT_LE(max_k, 1000.0 * (1 + 1e-6));
+  EXPECT_GT(max_k, 100.0);
+}
+
+TEST(ContactCompliance, Organ11kAt50HzHoldsItsMeasuredError) {
+  // The 11k organ probed (press, slide, release) with its physics at 50 Hz (the predictor built for
+  // 20 ms) and the contact solved every tick against its exact compliance, against the synchronous
+  // run (a 1 ms step every tick): the figure docs/BENCHMARKS.md reports (RMS 0.276 of the peak on
+  // 2026-11-25; the secant 0.287). Not the issue's 5 % target: most of the gap is the 20 ms
+  // organ's own dynamics, not the rendering (docs/haptics.md, "What the error is made of").
+  const SpringNetwork net = tet_ball_organ(13.4);
+  ASSERT_EQ(net.size(), 11488u);
+  const ProbeScript script = probe_script(net);
+  const std::vector<Vec3> truth = synchronous_forces(must_build(net, options(SpringSolver::sparse, 0.001)), script);
+  const SpringModel at50 = must_build(net, options(SpringSolver::sparse, 0.02));
+  const RenderError compliance = multirate_error(at50, MultiRateContact::compliance, script, truth);
+  const RenderError secant = multirate_error(at50, MultiRateContact::linearised, script, truth);
+  EXPECT_GT(compliance.peak, 0.5);
+  EXPECT_EQ(compliance.physics_steps, 75u);
+  EXPECT_GT(compliance.patch_ticks, 1400u);  // the rest fell back to the linearised contact
+  EXPECT_LE(compliance.rms, 0.30);
+  EXPECT_LE(compliance.max, 0.65);
+  EXPECT_LT(compliance.rms, secant.rms);
+  EXPECT_EQ(secant.patch_ticks, 0u);
+}
+
+TEST(ContactCompliance, ClosedToolLoopPutsNoEnergyIntoTheHand) {
+  // Passive: the work the rendered contact does on the hand over a closed path through the organ,
+  // ∮ F·dx with the physics at 50 Hz, is not positive (a circle of 3 mm radius in the x-y plane,
+  // pressing 1 to 7 mm into the top, twice round, back to the start).
+  const SpringNetwork net = tet_ball_organ(8.0);
+  const SpringModel model = must_build(net, options(SpringSolver::sparse, 0.02));
+  const ProbeScript script = probe_script(net);
+  auto tissue = make_spring_tissue("organ", model);
+  PhysicsWorker worker(*tissue, 0, 0.02, 0.001, 1000.0, false, MultiRateContact::compliance);
+  worker.start();
+  std::vector<double> figures(tissue->figure_names().size());
+  const Vec3 centre = script.top + Vec3(0, script.radius - 0.004, 0);
+  const long ticks = 4000;
+  double work = 0, peak = 0;
+  Vec3 f_prev = Vec3::Zero(), x_prev = Vec3::Zero();
+  for (long k = 0; k <= ticks; ++k) {
+    const double a = 2 * std::numbers::pi * 2 * static_cast<double>(k) / ticks;  // two turns
+    ToolState tool;
+    tool.radius = script.radius;
+    tool.tip = centre + 0.003 * Vec3(std::sin(a), std::cos(a), 0);
+    tool.velocity = 0.003 * (2 * std::numbers::pi * 2 / (ticks * 0.001)) * Vec3(std::cos(a), -std::sin(a), 0);
+    Vec3 f;
+    (void)worker.render(tool, 0, 0.0, f, figures);
+    if (k > 0) work += 0.5 * (f + f_prev).dot(tool.tip - x_prev);  // trapezoid
+    f_prev = f, x_prev = tool.tip;
+    peak = std::max(peak, f.norm());
+  }
+  EXPECT_GT(peak, 0.5);
+  EXPECT_GT(worker.patch_ticks(), 3000u);
+  EXPECT_LE(work, 0.0) << "peak " << peak << " N";
+}
