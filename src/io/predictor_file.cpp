@@ -147,27 +147,9 @@ Status save_predictor(const std::filesystem::path& file, const SpringModel& mode
   std::memcpy(w.buf.data() + 8, &predictor_file::kVersion, 4);
   std::memcpy(w.buf.data() + 16, &payload, 8);
   std::memcpy(w.buf.data() + 24, &sum, 8);
-  // Atomically: a temporary file in the same directory, then rename over the target.
-  std::error_code ec;
-  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
-  std::filesystem::path tmp = file;
-  tmp += ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return Error{file.string() + ": cannot write the predictor (cannot create " + tmp.string() + ")"};
-    out.write(w.buf.data(), static_cast<std::streamsize>(w.buf.size()));
-    out.flush();
-    if (!out) {
-      std::filesystem::remove(tmp, ec);
-      return Error{file.string() + ": cannot write the predictor (disk full?)"};
-    }
-  }
-  std::filesystem::rename(tmp, file, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    return Error{file.string() + ": cannot write the predictor: " + ec.message()};
-  }
-  return {};
+  // Atomically, and on disk before it is renamed into place (fsync): a killed precompute or a lost
+  // power leaves the old file or none, never a half-written one under the predictor's name.
+  return write_file_atomic(file, w.buf, true);
 }
 
 Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const SpringNetwork& net,
