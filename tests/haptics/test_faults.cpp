@@ -177,6 +177,20 @@ fs::path short_scene(const std::string& name, double duration) {
 
 }  // namespace
 
+namespace {
+// Empty `dir` for the next run. A killed run's gnuplot outlives it and may still be writing its
+// `.part` PNG there for a moment (seen on a fresh Debian root: "Directory not empty"): retry.
+void remove_all_when_quiet(const fs::path& dir) {
+  for (int i = 0; i < 100; ++i) {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+    if (!ec) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  fs::remove_all(dir);
+}
+}  // namespace
+
 // SIGKILL at 24 seeded random moments of `palpate run` (12 headless, 12 realtime; with plots and
 // frames): every output is whole or absent, and the recording holds whole, consecutive rows.
 TEST(Faults, RunKilledAtRandomMomentsLeavesEveryOutputWholeOrAbsent) {
@@ -190,7 +204,7 @@ TEST(Faults, RunKilledAtRandomMomentsLeavesEveryOutputWholeOrAbsent) {
     std::vector<std::string> args = {PALPATE_CLI, "run", "-q", "--frames", "2", "--out", out.string(), scene.string()};
     if (realtime) args.insert(args.begin() + 2, "--realtime");
     // One run to its end: how long a run takes, and that its outputs are whole.
-    fs::remove_all(out);
+    remove_all_when_quiet(out);
     int code = -1;
     const double whole = run_to_end(args, code);
     ASSERT_EQ(code, 0);
@@ -202,7 +216,7 @@ TEST(Faults, RunKilledAtRandomMomentsLeavesEveryOutputWholeOrAbsent) {
     double window = 0.95 * whole;
     size_t mode_kills = 0;
     for (int tries = 0; tries < 30 && mode_kills < 12; ++tries) {
-      fs::remove_all(out);
+      remove_all_when_quiet(out);
       const double t = std::uniform_real_distribution<double>(0.0, window)(rng);
       const std::string what = std::string(realtime ? "realtime" : "headless") + " run killed at " + std::to_string(t) + " s";
       if (!run_and_kill(args, t)) {  // it had ended: nothing was killed
