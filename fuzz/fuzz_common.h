@@ -49,6 +49,17 @@ inline std::filesystem::path write_file(const std::string& name, std::string_vie
   return p;
 }
 
+// The fuzzer's bytes as text.
+inline std::string_view bytes(const unsigned char* data, size_t size) {
+  return {reinterpret_cast<const char*>(data), size};
+}
+
+// The fuzzer's input saved as scratch_dir()/<name> (palpate's readers take paths): the prologue
+// of every target that hands one file to a reader.
+inline std::filesystem::path save_input(const std::string& name, const unsigned char* data, size_t size) {
+  return write_file(name, bytes(data, size));
+}
+
 // The oracle for a refusal: a message, naming `where` (the file, or the scene's name).
 inline void check_error(const Error& e, std::string_view where) {
   if (e.message.empty() || e.message.find(where) == std::string::npos) {

@@ -8,7 +8,7 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, size_t size) {
   using namespace palpate;
-  const auto file = fuzz::write_file("input.csv", {reinterpret_cast<const char*>(data), size});
+  const auto file = fuzz::save_input("input.csv", data, size);
   fuzz::no_throw([&] {
 #if FUZZ_RECORDING
     Result<std::vector<RecordedSample>> rows = load_recording_csv(file);

@@ -55,7 +55,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, size_t size) {
   using namespace palpate;
   namespace pf = palpate::predictor_file;
-  std::string bytes(reinterpret_cast<const char*>(data), size);
+  std::string bytes(fuzz::bytes(data, size));
   for (int pass = 0; pass < 2; ++pass) {
     if (pass == 1) {
       if (bytes.size() < pf::kHeaderSize) break;

@@ -10,7 +10,7 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, size_t size) {
   using namespace palpate;
-  const std::string text(reinterpret_cast<const char*>(data), size);
+  const std::string text(fuzz::bytes(data, size));
   fuzz::no_throw([&] {
     Result<SceneDef> scene = parse_scene(text, "fuzz-scene.yaml", PALPATE_DATA_DIR "/scenes");
     fuzz::check(scene, "fuzz-scene.yaml");

@@ -6,7 +6,7 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, size_t size) {
   using namespace palpate;
-  const auto file = fuzz::write_file("input" FUZZ_EXTENSION, {reinterpret_cast<const char*>(data), size});
+  const auto file = fuzz::save_input("input" FUZZ_EXTENSION, data, size);
   fuzz::no_throw([&] {
     Result<SurfaceMesh> m = load_surface(file);
     fuzz::check(m, file.string());

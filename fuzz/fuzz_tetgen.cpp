@@ -7,7 +7,7 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, size_t size) {
   using namespace palpate;
-  const std::string_view in(reinterpret_cast<const char*>(data), size);
+  const std::string_view in = fuzz::bytes(data, size);
   constexpr std::string_view kSeparator = "\n%%ele%%\n";
   const size_t at = in.find(kSeparator);
   const std::string_view node = at == std::string_view::npos ? in : in.substr(0, at + 1);
