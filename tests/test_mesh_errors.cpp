@@ -75,6 +75,14 @@ TEST(MeshErrors, UnknownExtensionAndBadScale) {
   const auto f = dir.write("cube.xyz123", "hello\n");
   expect_error(palpate::load_surface(f), f, {"unknown surface mesh format '.xyz123'"});
   expect_error(palpate::load_tet(f), f, {"unknown tetrahedral mesh format '.xyz123'"});
+  // Formats assimp reads but palpate neither documents nor fuzzes are refused too, readable or not:
+  // a Wavefront cube saved under COLLADA's, glTF's and 3DS's extensions never reaches assimp.
+  const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  for (const char* ext : {".dae", ".gltf", ".3ds", ".fbx"}) {
+    const auto g = dir.write(std::string("tri") + ext, obj);
+    const std::string unknown = std::string("unknown surface mesh format '") + ext + "'";
+    expect_error(palpate::load_surface(g), g, {unknown.c_str(), "expected .obj, .stl, .ply or .off"});
+  }
   const auto cube = palpate::test::test_mesh("cube.off");
   expect_error(palpate::load_surface(cube, -1.0), cube, {"scale is -1, expected a positive finite factor"});
   expect_error(palpate::load_tet(data_mesh("liver.msh"), 0.0), data_mesh("liver.msh"), {"scale is 0"});

@@ -34,8 +34,8 @@ struct SurfaceRequirements {
   bool closed = false;    // every edge shared by exactly two triangles
 };
 
-// Load a surface: OBJ, STL (ASCII and binary), PLY, OFF (through assimp; other formats assimp
-// reads are accepted too, untested). Triangulated, all meshes of the file concatenated, vertices
+// Load a surface: OBJ, STL (ASCII and binary), PLY, OFF (through assimp; any other extension is
+// refused, even one assimp reads: only these four are tested and fuzzed). Triangulated, all meshes of the file concatenated, vertices
 // merged by exact position (corners that differ only in normal or UV become one vertex), normals
 // computed, validated against `need`; `scale` (> 0) multiplies every coordinate. A closed,
 // consistently oriented surface whose triangles face inward is turned outward. Errors start with
