@@ -2,7 +2,9 @@
 // (SpringCompliance), the haptic thread's contact solve against it (solve_patch), and the
 // multi-rate force against the synchronous truth on the 11k organ.
 #include <palpate/haptics.h>
+#include <palpate/scene.h>
 #include <palpate/spring.h>
+#include <palpate/tissue.h>
 
 #include "haptics/patch_contact.h"
 #include "haptics/render_error.h"
@@ -12,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 
 using namespace palpate;
@@ -25,6 +28,16 @@ SpringModelOptions options(SpringSolver solver, double dt) {
   o.solver = solver;
   o.dt = dt;
   return o;
+}
+
+// The model at a physics rate as the multi-rate path builds it (data/scenes/large-organ.yaml, the
+// benchmark): directional_correction on, the step's contact against the exact diagonal of A⁻¹.
+SpringModel physics_rate_model(const SpringNetwork& net, double dt) {
+  SpringModelOptions o = options(SpringSolver::sparse, dt);
+  o.directional_correction = true;
+  SpringModel m = must_build(net, o);
+  EXPECT_TRUE(use_exact_contact_compliance(m));
+  return m;
 }
 
 // h² (A⁻¹)_ij from full solves with the model's factor: column j is A⁻¹ e_j.
@@ -75,6 +88,58 @@ TEST(SpringCompliance, BlockIsTheStepsOwnCompliance) {
   std::vector<double> wd(v.size() * v.size());
   cd.block(v, wd);
   for (size_t k = 0; k < w.size(); ++k) EXPECT_NEAR(wd[k], w[k], 1e-9 * scale);
+}
+
+TEST(SpringCompliance, ExactContactDiagonalIsTheStepsOwnAndSettlesWhereTheBoundDoes) {
+  // use_exact_contact_compliance: each surface vertex's (A⁻¹)_ii from the path substitutions equals
+  // a full solve's, is below the mass bound it replaces, and a press settles to the same force
+  // (the fixed point F = k_c Φ does not depend on c) but gets there sooner (c no longer 10³ too large).
+  const SpringNetwork net = tet_ball_organ(8.0);
+  const SpringModel bound = must_build(net, options(SpringSolver::sparse, 0.02));
+  SpringModel exact = bound;
+  ASSERT_TRUE(use_exact_contact_compliance(exact));
+  ASSERT_TRUE(exact.contact_compliance_exact);
+  const double h2 = 0.02 * 0.02;
+  int checked = 0, surface = 0;
+  for (size_t i = 0; i < net.size(); i += 7) {
+    const bool on_surface = exact.contact_compliance[i] != bound.contact_compliance[i] || bound.anchored[i];
+    if (!on_surface) continue;
+    ++surface;
+    const double expect = bound.anchored[i] ? 0.0 : reference_w(bound, static_cast<int>(i), static_cast<int>(i)) / h2;
+    EXPECT_NEAR(exact.contact_compliance[i], expect, 1e-9 * (1 + expect)) << i;
+    EXPECT_LE(exact.contact_compliance[i], bound.contact_compliance[i]) << i;
+    if (!bound.anchored[i]) EXPECT_LT(exact.contact_compliance[i], 1e-2 * bound.contact_compliance[i]) << i;
+    ++checked;
+  }
+  EXPECT_GT(checked, 20);
+  const ProbeScript script = probe_script(net);
+  auto press = [&](const SpringModel& m, std::vector<double>& force) {
+    SpringState s = make_state(m);
+    ToolState tool;
+    for (long k = 0; k <= 25; ++k) {  // pressed in over 0.5 s
+      tool = script.at(k * 20);
+      EXPECT_TRUE(step(m, s, &tool));
+      force.push_back(s.tool_force.norm());
+    }
+    tool.velocity.setZero();
+    for (int k = 0; k < 150; ++k) {
+      EXPECT_TRUE(step(m, s, &tool));
+      force.push_back(s.tool_force.norm());
+    }
+    return s.contact_force / std::max(s.contact_depth, 1e-12);  // k_c at rest
+  };
+  std::vector<double> fb, fe;
+  const double kb = press(bound, fb), ke = press(exact, fe);
+  EXPECT_NEAR(kb, bound.options.contact_stiffness, 0.01 * bound.options.contact_stiffness);
+  EXPECT_NEAR(ke, bound.options.contact_stiffness, 0.01 * bound.options.contact_stiffness);
+  EXPECT_NEAR(fe.back(), fb.back(), 0.01 * fb.back());
+  // The steps until the force stays within 2 % of where it settles.
+  auto settle = [](const std::vector<double>& f) {
+    size_t k = f.size();
+    while (k > 0 && std::abs(f[k - 1] - f.back()) <= 0.02 * f.back()) --k;
+    return k;
+  };
+  EXPECT_LT(settle(fe), settle(fb)) << "bound " << settle(fb) << ", exact " << settle(fe);
 }
 
 TEST(SpringCompliance, PatchReproducesTheStepsForceAtItsOwnPose) {
@@ -189,4 +254,48 @@ TEST(ContactCompliance, ClosedToolLoopPutsNoEnergyIntoTheHand) {
   EXPECT_GT(peak, 0.5);
   EXPECT_GT(worker.patch_ticks(), 3000u);
   EXPECT_LE(work, 0.0) << "peak " << peak << " N";
+}
+
+TEST(ContactCompliance, LargeOrganSceneRendersFromTheCompliance) {
+  // data/scenes/large-organ.yaml as shipped, its ball shrunk to 16 mm so that the test builds in
+  // seconds (every material key as the scene has it): multi-rate at its physics_rate with the
+  // model's exact compliance patch (ContactComplianceSource) rendering the press — not the secant
+  // fallback — and its step's contact against the exact diagonal of A⁻¹.
+  auto scene = load_scene(PALPATE_SOURCE_DIR "/data/scenes/large-organ.yaml");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  ASSERT_EQ(scene->tissues.size(), 1u);
+  TissueDef& t = scene->tissues[0];
+  const double physics_dt = scene_physics_dt(t);
+  EXPECT_DOUBLE_EQ(physics_dt, 0.02);
+  EXPECT_TRUE(t.spring.directional_correction);
+  ASSERT_TRUE(t.patch.has_value());
+  t.patch->radius = 0.016;
+  t.patch->center = Vec3(0, -0.016, 0);  // its top at y = 0, as the scene's
+  scene->output = std::filesystem::temp_directory_path() / "palpate_large_organ_test";
+  auto tissue = make_tissue(*scene, 0);
+  ASSERT_TRUE(tissue.ok()) << tissue.error().message;
+  ASSERT_NE((*tissue)->contact_compliance(), nullptr);
+  PhysicsWorker worker(**tissue, 0, physics_dt, scene->dt, scene->device.stiffness, false, MultiRateContact::compliance);
+  worker.start();
+  std::vector<double> figures((*tissue)->figure_names().size());
+  double peak = 0;
+  long touching = 0;
+  for (long k = 0; k < 700; ++k) {  // the scene's press (5 mm in over 0.5 s), then held 0.2 s
+    const double u = std::min(1.0, k * 0.001 / 0.5);
+    ToolState tool;
+    tool.time = k * 0.001;
+    tool.radius = scene->tool.radius;
+    tool.tip = Vec3(0, 0.005 - 0.006 * u, 0);
+    tool.velocity = Vec3(0, u < 1 ? -0.012 : 0.0, 0);
+    Vec3 f = Vec3::Zero();
+    EXPECT_EQ(worker.render(tool, 0, 0.0, f, figures), TickFault::none);
+    if (f.norm() > 0) ++touching;
+    peak = std::max(peak, f.norm());
+  }
+  worker.stop();
+  std::filesystem::remove_all(scene->output);
+  EXPECT_GT(peak, 0.1);
+  EXPECT_GT(touching, 400);
+  EXPECT_GT(worker.patch_ticks(), 600u);
+  EXPECT_LE(worker.patch_fallbacks(), 20u);
 }
