@@ -238,6 +238,9 @@ struct SpringModel {
   bool closed_surface = false;          // every triangle edge shared by two triangles: inside is defined
   std::vector<double> contact_compliance;  // (n) 1 / (m_i + hγ), 0 for an anchored vertex: an upper bound
                                            // of the vertex's row of A⁻¹ (A ≥ M + hγI), 1/kg
+  // contact_compliance holds each surface vertex's exact (A⁻¹)_ii instead of the mass bound
+  // (use_exact_contact_compliance): the step's c is then the Cauchy–Schwarz bound (Σ_i |g_i| √(A⁻¹)_ii)².
+  bool contact_compliance_exact = false;
   bool all_pairs = false;               // springs are every pair (i < j) in order: the O(n²) kernel
 };
 
@@ -342,6 +345,11 @@ class SpringCompliance {
   bool contact_patch(const SpringState& state, const ToolState& tool, double margin, ContactPatch& patch);
   // The vertices of the last patch, in its point order.
   const std::vector<int>& patch_vertices() const noexcept { return patch_vertices_; }
+  // (A⁻¹)_ii (1/kg; W_ii = h² (A⁻¹)_ii) of each of `vertices` into d: forward substitutions eight at
+  // a time, not cached (0 for an anchored vertex).
+  void diagonal(std::span<const int> vertices, std::span<double> d);
+  // The vertices of the surface triangles.
+  const std::vector<int>& surface() const noexcept { return surface_; }
   std::uint64_t computed() const noexcept { return computed_; }  // vertices' z_i computed so far
   size_t cached() const noexcept { return cached_; }
 
@@ -373,6 +381,14 @@ class SpringCompliance {
   size_t cached_ = 0;
 };
 
+// The model's own contact (surface_contact in step.cpp) against the exact diagonal of A⁻¹ instead of
+// the mass bound 1/(m_i + hγ): each surface vertex's (A⁻¹)_ii into contact_compliance and
+// contact_compliance_exact set, so the step's compliance c = (Σ_i |g_i| √(A⁻¹)_ii)² — still an upper
+// bound of gᵀA⁻¹g (|(A⁻¹)_ij| ≤ √((A⁻¹)_ii (A⁻¹)_jj)), but close to it where the mass bound is 10⁴
+// too loose (a long step on a stiff organ), so the step's contact agrees with the exact compliance
+// the multi-rate loop renders (issue 24). One forward substitution per surface vertex, at build time.
+// False (the model unchanged) when it has no predictor or no surface.
+bool use_exact_contact_compliance(SpringModel& model);
 
 // Predictor files (a versioned binary format, docs/models/mass-spring.md).
 // FNV-1a 64 of the network's rest positions and topology: the "mesh" a predictor was made for.

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace palpate {
 
@@ -106,6 +107,72 @@ void SpringCompliance::compute(std::span<const int> vertices) {
     mark_[static_cast<size_t>(j)] = 0;
     std::fill_n(&y_[static_cast<size_t>(j) * kBatch], kBatch, 0.0);
   }
+}
+
+void SpringCompliance::diagonal(std::span<const int> vertices, std::span<double> d) {
+  const SpringPredictor& p = model_.predictor;
+  const size_t count = std::min(vertices.size(), d.size());
+  if (!available_) { std::fill_n(d.begin(), count, 0.0); return; }
+  if (p.kind == SpringSolver::desbrun) {
+    for (size_t a = 0; a < count; ++a) {
+      const size_t i = static_cast<size_t>(vertices[a]);
+      d[a] = model_.anchored[i] ? 0.0 : p.inverse[i * static_cast<size_t>(n_) + i];
+    }
+    return;
+  }
+  // (A⁻¹)_ii = Σ_j y_j² / D_j over the path, y = L⁻¹ e_perm[i]: the batch's substitution as in
+  // compute(), its squares summed instead of kept.
+  for (size_t start = 0; start < count; start += kBatch) {
+    const int B = static_cast<int>(std::min<size_t>(kBatch, count - start));
+    union_.clear();
+    for (int b = 0; b < B; ++b) {
+      const int col = p.perm[static_cast<size_t>(vertices[start + static_cast<size_t>(b)])];
+      y_[static_cast<size_t>(col) * kBatch + static_cast<size_t>(b)] = 1.0;
+      for (int j = col; j >= 0 && !mark_[static_cast<size_t>(j)]; j = parent_[static_cast<size_t>(j)]) {
+        mark_[static_cast<size_t>(j)] = 1;
+        union_.push_back(j);
+      }
+    }
+    std::sort(union_.begin(), union_.end());
+    double sum[kBatch] = {};
+    for (int j : union_) {
+      const double* yj = &y_[static_cast<size_t>(j) * kBatch];
+      for (int k = p.col_start[static_cast<size_t>(j)]; k < p.col_start[static_cast<size_t>(j) + 1]; ++k) {
+        double* yr = &y_[static_cast<size_t>(p.row[static_cast<size_t>(k)]) * kBatch];
+        const double v = p.value[static_cast<size_t>(k)];
+        for (int b = 0; b < kBatch; ++b) yr[b] -= v * yj[b];
+      }
+      const double inv = p.inv_diag[static_cast<size_t>(j)];
+      for (int b = 0; b < kBatch; ++b) sum[b] += yj[b] * yj[b] * inv;
+    }
+    for (int b = 0; b < B; ++b) {
+      const size_t i = static_cast<size_t>(vertices[start + static_cast<size_t>(b)]);
+      d[start + static_cast<size_t>(b)] = model_.anchored[i] ? 0.0 : sum[b];
+    }
+    for (int j : union_) {
+      mark_[static_cast<size_t>(j)] = 0;
+      std::fill_n(&y_[static_cast<size_t>(j) * kBatch], kBatch, 0.0);
+    }
+  }
+}
+
+bool use_exact_contact_compliance(SpringModel& model) {
+  if (model.contact_compliance_exact) return true;
+  std::vector<double> d;
+  {
+    SpringCompliance c(model, kBatch);
+    if (!c.available() || c.surface().empty()) return false;
+    d.resize(c.surface().size());
+    c.diagonal(c.surface(), d);
+    // Only vertices of the surface touch the tool; the others keep the mass bound (unused).
+    for (size_t a = 0; a < d.size(); ++a) {
+      const size_t i = static_cast<size_t>(c.surface()[a]);
+      // (A⁻¹)_ii ≤ 1/(m_i + hγ) in exact arithmetic; never looser than the bound it replaces.
+      if (std::isfinite(d[a]) && d[a] >= 0) model.contact_compliance[i] = std::min(model.contact_compliance[i], d[a]);
+    }
+  }
+  model.contact_compliance_exact = true;
+  return true;
 }
 
 void SpringCompliance::block(std::span<const int> vertices, std::span<double> w) {

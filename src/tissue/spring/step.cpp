@@ -876,9 +876,16 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
     return;
   }
   double compliance = 0;
-  for (int k = 0; k < s.contact_vertex_count; ++k)
-    compliance += g[static_cast<size_t>(k)].squaredNorm() *
-                  model.contact_compliance[static_cast<size_t>(s.contact_vertex[static_cast<size_t>(k)])];
+  if (model.contact_compliance_exact) {  // (A⁻¹)_ii: the Cauchy–Schwarz bound (Σ_i |g_i| √(A⁻¹)_ii)²
+    for (int k = 0; k < s.contact_vertex_count; ++k)
+      compliance += g[static_cast<size_t>(k)].norm() *
+                    std::sqrt(model.contact_compliance[static_cast<size_t>(s.contact_vertex[static_cast<size_t>(k)])]);
+    compliance *= compliance;
+  } else {
+    for (int k = 0; k < s.contact_vertex_count; ++k)
+      compliance += g[static_cast<size_t>(k)].squaredNorm() *
+                    model.contact_compliance[static_cast<size_t>(s.contact_vertex[static_cast<size_t>(k)])];
+  }
   // The normal damper (contact_damping) on the approach speed of the tool to the contact vertices
   // along the force's direction: explicit, so small (it is zero at rest).
   Vec3 surface_v = Vec3::Zero(), direction = Vec3::Zero();

@@ -226,6 +226,9 @@ Result<std::unique_ptr<Tissue>> make_spring_tissue(const SceneDef& scene, int in
   const TissueDef& t = scene.tissues.at(static_cast<size_t>(index));
   auto model = build_spring_model(std::move(setup->network), setup->options, setup->predictor, setup->policy);
   if (!model) return Error{where_of(scene, t) + ": " + model.error().message};
+  // On the multi-rate path the step's contact uses the exact diagonal of A⁻¹, so that it agrees with
+  // the exact compliance the haptic thread renders between its steps (issue 24).
+  if (t.spring.physics_rate > 0) (void)use_exact_contact_compliance(*model);
   return std::unique_ptr<Tissue>(std::make_unique<SpringTissue>(t.name, index, std::move(*model)));
 }
 
