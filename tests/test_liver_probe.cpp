@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <unistd.h>
@@ -204,4 +205,36 @@ TEST(LiverProbe, GraspAndPullGivesAForceTowardTheOrgan) {
   EXPECT_LT(pull_end, pull_start - 1.0);
   EXPECT_GT(pull_end, -3.3);            // within the device's peak force
   EXPECT_EQ(released, 0.0);
+}
+
+// Let go, the grasped organ's pull fades over the material's grasp_release_time (0.05 s, the jaws
+// opening) instead of vanishing in a tick (before: 1.26 N to 0 at once, clipped by the safety
+// filter over 6 ticks): after the button is released the force changes by less than half the
+// device's rate limit on every tick, holds part of the pull half-way, and is gone once the release
+// time is over.
+TEST(LiverProbe, LettingGoTheGraspFadesOverItsReleaseTime) {
+  const ProbeRun& r = liver_probe_run();
+  ASSERT_FALSE(r.ticks.empty());
+  auto scene = palpate::load_scene(PALPATE_SOURCE_DIR "/data/scenes/liver-probe.yaml");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  const double release_time = scene->tissues[0].spring.grasp_release_time;
+  ASSERT_GT(release_time, 0.0);
+  size_t let_go = 0;
+  for (size_t i = 1; i < r.ticks.size(); ++i)
+    if (r.ticks[i - 1].grasp && !r.ticks[i].grasp) let_go = i;
+  ASSERT_GT(let_go, 0u) << "the scene never lets its grasp go";
+  const double held = r.ticks[let_go - 1].force.norm();
+  ASSERT_GT(held, 1.0);  // N: a real pull is let go (measured 1.26 N)
+  const auto ticks = static_cast<size_t>(std::lround(release_time / scene->dt));
+  double largest = 0;
+  for (size_t i = let_go; i < r.ticks.size() && i < let_go + ticks + 50; ++i) {
+    const double change = (r.ticks[i].force - r.ticks[i - 1].force).norm();
+    largest = std::max(largest, change);
+    EXPECT_LT(change, 0.5 * scene->device.max_force_rate * scene->dt) << "tick " << i - let_go;
+  }
+  std::printf("let go at %.3f N: largest change %.4f N a tick over %zu ticks\n", held, largest, ticks);
+  // Still holding part of the pull half-way, nothing left once the release time is over.
+  EXPECT_GT(r.ticks[let_go + ticks / 2].force.norm(), 0.25 * held);
+  ASSERT_LT(let_go + ticks + 2, r.ticks.size());
+  EXPECT_LT(r.ticks[let_go + ticks + 2].force.norm(), 0.05 * held);
 }

@@ -30,14 +30,15 @@ TEST(ShippedScenes, EachRunsAndItsToolTouchesItsTissue) {
     EXPECT_EQ(r->safety.non_finite, 0u) << name;
     EXPECT_EQ(r->safety.step_failed, 0u) << name;
     EXPECT_GT(r->max_force, 0.1) << name << ": the tool never touched its tissue";
-    // SOFA's liver, pressed and let go by a probe: a steady press never needs the rate limit.
-    if (name == "liver-springs.yaml") {
+    // No shipped scene needs the rate limit: a needle's normal insertion and withdrawal (issue 19),
+    // a probe's steady press and let-go (liver-springs), a grasped organ let go (liver-probe: its
+    // pull fades over the material's grasp_release_time, where it used to drop 1.26 N in a tick).
+    // Not yet large-organ.yaml (issue 24): at lift-off its multi-rate contact renders 0.40 N until
+    // the physics step that finds the tool gone, then 0 — 2 ticks clipped at 0.2 N.
+    if (name != "large-organ.yaml") {
       EXPECT_EQ(r->safety.rate_limited, 0u) << name;
-    }
-    // A needle's normal insertion and withdrawal never needs the rate limit (issue 19); a grasp let
-    // go at 2.5 N (liver-probe) is a release the filter is there to soften.
-    if (scene->tool.kind == "needle") {
-      EXPECT_EQ(r->safety.rate_limited, 0u) << name;
+    } else {
+      EXPECT_LE(r->safety.rate_limited, 2u) << name;
     }
   }
   EXPECT_GE(ran, 8);

@@ -121,6 +121,8 @@ struct SpringModelOptions {
   double contact_damping = 0.05;               // N·s/m along the contact normal (vertices: per vertex inside)
   double grasp_radius = 0.002;                 // m beyond the tool's radius that grasping reaches
   double grasp_stiffness = 200.0;              // N/m per grasped vertex (clamped for stability)
+  double grasp_release_time = 0.05;            // s: a let-go grasp's springs fade to zero over this
+                                               // (the jaws opening), not at once; 0: at once
   int newton_iterations = 30;                  // exact solver: most Newton iterations per step
   double newton_tolerance = 1e-10;             // exact solver: stop when |Δv| ≤ tol · (1 + |v|), m/s
   double max_speed = 50.0;                     // m/s; faster means blow-up: the state is reset
@@ -277,7 +279,9 @@ struct SpringState {
   std::array<int, kMaxGrasped> grasped{};
   std::array<Vec3, kMaxGrasped> grasp_offset{};
   int grasped_count = 0;
-  bool grasping = false;
+  bool grasping = false;  // the tool holds (its grasp is on); grasped_count > 0 without it: letting go
+  double grasp_hold = 0;  // 1 held, down to 0 over grasp_release_time once let go (the springs' share
+                          // of grasp_stiffness is its smoothstep)
   // What the last step found.
   // Surface contact: the contact force the last step ended with, on each vertex it acts on (the next
   // step starts with it as an external force, then corrects it), and its size F (N).

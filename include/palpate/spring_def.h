@@ -23,6 +23,7 @@ struct SpringMaterialDef {
   double contact_stiffness = 500.0;  // N/m: the contact's penalty (surface: per metre of depth)
   double grasp_radius = 0.002;       // m beyond the tool's radius that grasping reaches
   double grasp_stiffness = 200.0;    // N/m per grasped vertex
+  double grasp_release_time = 0.05;  // s over which a let-go grasp lets go (the jaws opening)
   std::string predictor = "";      // predictor file; "" = next to the output
   std::string predictor_policy = "load_or_compute";  // load_or_compute | require_file
   bool single_precision = false;   // per-tick predictor (and uniform all-pairs forces) in float

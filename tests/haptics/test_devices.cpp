@@ -5,6 +5,7 @@
 #include <palpate/run.h>
 
 #include "haptics/doubles.h"
+#include "run_csv_rows.h"
 #include "haptics/fake_hd_client.h"
 
 #include <gtest/gtest.h>
@@ -40,10 +41,7 @@ std::vector<std::vector<std::string>> csv_cells(const fs::path& p) {
   std::istringstream in(slurp(p));
   std::string line;
   while (std::getline(in, line)) {
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
-    out.push_back(f);
+    out.push_back(palpate::test::csv_cells_of(line));
   }
   return out;
 }

@@ -9,6 +9,7 @@
 #include <palpate/tissue.h>
 
 #include "haptics/doubles.h"
+#include "run_csv_rows.h"
 #include "haptics/fake_hd_client.h"
 #include "shell_run.h"
 
@@ -373,31 +374,8 @@ TEST(Faults, UnwritableOutputDirectoryIsAClearError) {
 
 namespace {
 
-struct Row {
-  long tick = 0;
-  Vec3 tool = Vec3::Zero(), force = Vec3::Zero();
-  std::string events;
-};
-
-std::vector<Row> read_rows(const fs::path& p) {
-  std::ifstream in(p);
-  std::string line;
-  std::getline(in, line);
-  std::vector<Row> rows;
-  while (std::getline(in, line)) {
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
-    if (line.back() == ',') f.push_back("");
-    Row r;
-    r.tool = Vec3(std::stod(f.at(1)), std::stod(f.at(2)), std::stod(f.at(3)));
-    r.force = Vec3(std::stod(f.at(4)), std::stod(f.at(5)), std::stod(f.at(6)));
-    r.tick = std::stol(f.at(8));
-    r.events = f.at(14);
-    rows.push_back(r);
-  }
-  return rows;
-}
+using Row = palpate::test::RunRow;
+using palpate::test::read_run_rows;
 
 // On every tick marked `fault`, the force heads to zero at the full rate: no larger than the tick
 // before less one step (max_force_rate · dt), so it is zero within |F| / step ticks of the first.
@@ -452,7 +430,7 @@ TEST(Faults, DeviceThatStopsAnsweringOrReadsNaNHasItsForceZeroed) {
   (*loop)->wait();
   ASSERT_TRUE((*loop)->finish_recording());
   const palpate::LoopStats st = (*loop)->stats();
-  const auto rows = read_rows(csv);
+  const auto rows = read_run_rows(csv);
   ASSERT_EQ(rows.size(), 1200u);
   const double step = 200.0 * 1e-3;
   EXPECT_GE(expect_faults_head_to_zero(rows, "device_failed", step), 2u);
@@ -519,7 +497,7 @@ TEST(Faults, DeviceThatAnswersLateHasItsForceZeroedOnThatTick) {
   ASSERT_TRUE((*loop)->start());
   (*loop)->wait();
   ASSERT_TRUE((*loop)->finish_recording());
-  const auto rows = read_rows(csv);
+  const auto rows = read_run_rows(csv);
   ASSERT_EQ(rows.size(), 1000u);
   EXPECT_GE(expect_faults_head_to_zero(rows, "overrun", 0.2), 3u);
   for (long k : {299L, 599L, 899L}) EXPECT_NE(rows[size_t(k)].events.find("overrun"), std::string::npos) << k;

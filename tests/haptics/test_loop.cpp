@@ -5,6 +5,7 @@
 #include <palpate/run.h>
 
 #include "haptics/doubles.h"
+#include "run_csv_rows.h"
 
 #include <gtest/gtest.h>
 
@@ -24,36 +25,7 @@ namespace {
 constexpr double kDt = 0.001;
 constexpr double kMaxForce = 3.3, kMaxStep = 200.0 * kDt;  // N, N per tick (a Touch's defaults)
 
-struct CsvRow {
-  long tick = 0;
-  double t = 0, y = 0;
-  Vec3 force = Vec3::Zero();
-  palpate::Quat q = palpate::Quat::Identity();
-  std::string events;
-};
-
-// Rows of a run.csv (columns as the loop writes them).
-std::vector<CsvRow> read_rows(const fs::path& p) {
-  std::ifstream in(p);
-  std::string line;
-  std::getline(in, line);
-  std::vector<CsvRow> rows;
-  while (std::getline(in, line)) {
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
-    if (line.back() == ',') f.push_back("");
-    CsvRow r;
-    r.t = std::stod(f.at(0));
-    r.y = std::stod(f.at(2));
-    r.force = Vec3(std::stod(f.at(4)), std::stod(f.at(5)), std::stod(f.at(6)));
-    r.tick = std::stol(f.at(8));
-    r.q = palpate::Quat(std::stod(f.at(9)), std::stod(f.at(10)), std::stod(f.at(11)), std::stod(f.at(12)));
-    r.events = f.at(14);
-    rows.push_back(r);
-  }
-  return rows;
-}
+using CsvRow = RunRow;
 
 size_t count_event(const std::vector<CsvRow>& rows, const std::string& name) {
   size_t n = 0;
@@ -110,7 +82,7 @@ TEST(Loop, AdversarialDeviceStaysWithinSafetyLimits) {
   EXPECT_NEAR(dev.written.back().y(), 1.5, 1e-9);
 
   // The recorder lost no tick, and marked the events it saw.
-  const auto rows = read_rows(csv);
+  const auto rows = read_run_rows(csv);
   ASSERT_EQ(rows.size(), 1300u);
   for (size_t k = 0; k < rows.size(); ++k) {
     ASSERT_EQ(rows[k].tick, long(k));
@@ -119,7 +91,7 @@ TEST(Loop, AdversarialDeviceStaysWithinSafetyLimits) {
   EXPECT_EQ(count_event(rows, "device_failed"), 50u);
   EXPECT_EQ(count_event(rows, "clamped"), st.safety.clamped);
   // During the NaN poses the recorded tool position holds the last good one, never NaN.
-  EXPECT_EQ(rows[360].y, -1.0);
+  EXPECT_EQ(rows[360].tool.y(), -1.0);
 }
 
 TEST(Loop, RealtimeRecordsEveryTickAndReportsTiming) {
@@ -155,7 +127,7 @@ TEST(Loop, RealtimeRecordsEveryTickAndReportsTiming) {
   EXPECT_GE(st.period.max, st.period.p99);
   EXPECT_GE(st.period.p99, st.period.median);
   EXPECT_GT(st.step.median, 0.0);
-  const auto rows = read_rows(csv);
+  const auto rows = read_run_rows(csv);
   ASSERT_EQ(rows.size(), 800u);
   for (size_t k = 0; k < rows.size(); ++k) ASSERT_EQ(rows[k].tick, long(k));
   EXPECT_FALSE(fs::exists(csv.string() + ".part"));
@@ -182,7 +154,7 @@ TEST(Loop, OverrunWatchdogSendsZeroAndRecovers) {
   (*loop)->wait();
   ASSERT_TRUE((*loop)->finish_recording());
   const palpate::LoopStats st = (*loop)->stats();
-  const auto rows = read_rows(csv);
+  const auto rows = read_run_rows(csv);
   ASSERT_EQ(rows.size(), 1100u);
   EXPECT_GE(st.safety.overrun, 3u);
   EXPECT_EQ(count_event(rows, "overrun"), st.safety.overrun);
@@ -222,7 +194,7 @@ TEST(Loop, AFailedStepIsCountedAndRestartsTheRamp) {
   (*loop)->run_headless(400);
   ASSERT_TRUE((*loop)->finish_recording());
   EXPECT_EQ((*loop)->stats().safety.step_failed, 5u);
-  const auto rows = read_rows(csv);
+  const auto rows = read_run_rows(csv);
   ASSERT_EQ(rows.size(), 400u);
   EXPECT_EQ(count_event(rows, "step_failed"), 5u);
   for (size_t k = 199; k < 204; ++k) EXPECT_NE(rows[k].events.find("step_failed"), std::string::npos) << k;
@@ -298,7 +270,7 @@ TEST(Loop, RunSceneRealtimeWritesTimingToSummary) {
   EXPECT_EQ(r->ticks, 300u);
   EXPECT_EQ(r->recorder_dropped, 0u);
   EXPECT_GT(r->period.median, 0.0);
-  const auto rows = read_rows(o.out / "run.csv");
+  const auto rows = read_run_rows(o.out / "run.csv");
   ASSERT_EQ(rows.size(), 300u);
   for (size_t k = 0; k < rows.size(); ++k) ASSERT_EQ(rows[k].tick, long(k));
   std::ifstream in(o.out / "summary.json");
@@ -379,7 +351,7 @@ TEST(Loop, AFailedReadHoldsTheLastGoodOrientationNotTheSceneAxis) {
   (*loop)->run_headless(200);
   ASSERT_TRUE((*loop)->finish_recording());
   EXPECT_EQ((*loop)->stats().safety.device_failed, 40u);  // ticks 100-139; a norm-3 quaternion is fine
-  const auto rows = read_rows(csv);
+  const auto rows = read_run_rows(csv);
   ASSERT_EQ(rows.size(), 200u);
   ASSERT_EQ(rec.seen.size(), 200u);
   const Vec3 held = rec.seen[99].axis;

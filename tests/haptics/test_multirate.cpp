@@ -3,6 +3,7 @@
 #include <palpate/haptics.h>
 
 #include "haptics/doubles.h"
+#include "run_csv_rows.h"
 
 #include <gtest/gtest.h>
 
@@ -104,19 +105,13 @@ TEST(MultiRate, StalledPhysicsThreadGivesZeroForceAndRecovers) {
   ASSERT_TRUE((*loop)->finish_recording());
   const palpate::LoopStats st = (*loop)->stats();
 
-  std::ifstream in(csv);
-  std::string line;
-  std::getline(in, line);
   std::vector<double> fy;
   std::vector<bool> stalled;
   long expect_tick = 0;
-  while (std::getline(in, line)) {
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
-    ASSERT_EQ(std::stol(f.at(8)), expect_tick++);
-    fy.push_back(std::stod(f.at(5)));
-    stalled.push_back(f.at(14).find("stalled") != std::string::npos);
+  for (const palpate::test::RunRow& r : palpate::test::read_run_rows(csv)) {
+    ASSERT_EQ(r.tick, expect_tick++);
+    fy.push_back(r.force.y());
+    stalled.push_back(r.events.find("stalled") != std::string::npos);
   }
   ASSERT_EQ(fy.size(), 2000u);
   // On a loaded machine the physics thread may also be starved for over the timeout at other

@@ -319,6 +319,7 @@ void reset(const SpringModel& model, SpringState& s) noexcept {
   s.time = 0;
   s.grasped_count = 0;
   s.grasping = false;
+  s.grasp_hold = 0;
   s.tool_force.setZero();
   s.anchor_force.setZero();
   s.contacts = 0;

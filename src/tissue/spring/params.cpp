@@ -30,6 +30,8 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
        "vertex inside the probe (clamped for stability)"},
       {"grasp_radius", &D::grasp_radius, 0.0, 1.0, "m", "reach of grasping beyond the tool's radius"},
       {"grasp_stiffness", &D::grasp_stiffness, 0.0, 1e7, "N/m", "stiffness tying each grasped vertex to the tool"},
+      {"grasp_release_time", &D::grasp_release_time, 0.0, 1.0, "s",
+       "a let-go grasp's springs fade to zero over this time (the jaws opening), not at once"},
       {"predictor", &D::predictor, 0, 0, "", "predictor file written by `palpate precompute`"},
       {"predictor_policy", &D::predictor_policy, 0, 0, "",
        "on a missing or mismatched predictor file: recompute it, or stop", "load_or_compute|require_file"},

@@ -463,7 +463,8 @@ Vec3 gravity_vector(const SpringModelOptions& o) {
 // Forces from the tool, added to f (n x 3), and their reaction on the tool.
 // Probe: a penalty on every vertex inside the sphere (tip, radius), f = k_c (r − |x − tip|) n̂ minus a
 // normal damper, k_c clamped to max_contact_stiffness so the explicit penalty stays stable.
-// Grasp: vertices within radius + grasp_radius when the grasp starts follow the tool on springs.
+// Grasp: vertices within radius + grasp_radius when the grasp starts follow the tool on springs; let
+// go, the springs fade out over grasp_release_time (a grasped organ's pull does not vanish in a tick).
 Vec3 add_tool_forces(const SpringModel& model, SpringState& s, const ToolState& tool, RowMat3d& f) noexcept {
   const SpringModelOptions& o = model.options;
   const Eigen::Index n = s.x.rows();
@@ -496,13 +497,22 @@ Vec3 add_tool_forces(const SpringModel& model, SpringState& s, const ToolState& 
       s.grasp_offset[static_cast<size_t>(slot)] = s.x.row(i).transpose() - tool.tip;
     }
     s.grasping = true;
+    s.grasp_hold = 1;
+  } else if (!tool.grasp && s.grasped_count > 0) {
+    s.grasping = false;
+    s.grasp_hold = o.grasp_release_time > 0 ? s.grasp_hold - o.dt / o.grasp_release_time : 0.0;
+    if (!(s.grasp_hold > 0)) {
+      s.grasp_hold = 0;
+      s.grasped_count = 0;
+    }
   } else if (!tool.grasp) {
     s.grasping = false;
-    s.grasped_count = 0;
   }
+  // Faded by smoothstep of the time left (no kink in the force where the release starts or ends).
+  const double hold = s.grasp_hold * s.grasp_hold * (3.0 - 2.0 * s.grasp_hold);
   for (int k = 0; k < s.grasped_count; ++k) {
     const int i = s.grasped[static_cast<size_t>(k)];
-    const double kg = std::min(o.grasp_stiffness, model.max_contact_stiffness[static_cast<size_t>(i)]);
+    const double kg = hold * std::min(o.grasp_stiffness, model.max_contact_stiffness[static_cast<size_t>(i)]);
     const Vec3 target = tool.tip + s.grasp_offset[static_cast<size_t>(k)];
     const Vec3 fi = kg * (target - s.x.row(i).transpose());
     f.row(i) += fi.transpose();

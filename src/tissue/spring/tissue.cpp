@@ -205,6 +205,7 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
   else return Error{where + ": material.contact '" + m.contact + "' is not one of surface|vertices"};
   o.grasp_radius = m.grasp_radius;
   o.grasp_stiffness = m.grasp_stiffness;
+  o.grasp_release_time = m.grasp_release_time;
   o.single_precision = m.single_precision;
   o.exact_iterations = m.exact_iterations;
   o.directional_correction = m.directional_correction;
