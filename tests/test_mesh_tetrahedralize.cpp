@@ -2,8 +2,13 @@
 #include <palpate/mesh.h>
 
 #include "mesh_test_files.h"
+#include "tissue/spring/shapes.h"
 
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
 
 namespace {
 
@@ -76,6 +81,73 @@ TEST(MeshTetrahedralize, RefusesOpenSurfacesAndBadSizes) {
   const auto nm = palpate::tetrahedralize(fin);
   ASSERT_FALSE(nm.ok());
   EXPECT_NE(nm.error().message.find("non-manifold edge (0, 1)"), std::string::npos) << nm.error().message;
+}
+
+}  // namespace
+
+namespace {
+
+// Mean edge length of the tetrahedra whose centroid lies within `radius` of `at` (or beyond it).
+double mean_edge_near(const palpate::TetMesh& m, const palpate::Vec3& at, double radius, bool inside) {
+  static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  double sum = 0;
+  int count = 0;
+  for (Eigen::Index t = 0; t < m.T.rows(); ++t) {
+    palpate::Vec3 c = palpate::Vec3::Zero();
+    for (int k = 0; k < 4; ++k) c += m.V.row(m.T(t, k)).transpose() / 4;
+    if (((c - at).norm() < radius) != inside) continue;
+    for (const auto& e : kEdges) {
+      sum += (m.V.row(m.T(t, e[0])) - m.V.row(m.T(t, e[1]))).norm();
+      ++count;
+    }
+  }
+  return count ? sum / count : 0.0;
+}
+
+// A graded fill (FillOptions::refine): a unit cube (its surface in squares of 0.25) filled with
+// edges of 0.25 except near its centre, where they are 0.05. More vertices than the uniform fill,
+// tetrahedra several times smaller near the point than away from it, the same volume and boundary.
+TEST(MeshTetrahedralize, RefinementGradesTheFill) {
+  const palpate::SurfaceMesh cube = palpate::boundary_surface(palpate::spring::make_block(5, 5, 5, 0.25));
+  const auto uniform = palpate::tetrahedralize(cube, 0.25);
+  ASSERT_TRUE(uniform.ok()) << uniform.error().message;
+  palpate::FillOptions o;
+  o.max_edge = 0.25;
+  const palpate::Vec3 at(0.5, 0.5, 0.5);
+  o.refine.push_back({.center = at, .radius = 0.1, .size = 0.05, .growth = 0.5});
+  const auto graded = palpate::tetrahedralize(cube, o);
+  ASSERT_TRUE(graded.ok()) << graded.error().message;
+  expect_fills(cube, *graded);
+  EXPECT_NEAR(palpate::describe(*graded).volume, 1.0, 1e-12);
+  EXPECT_GT(graded->V.rows(), uniform->V.rows());
+  const double near = mean_edge_near(*graded, at, 0.1, true), far = mean_edge_near(*graded, at, 0.35, false);
+  std::printf("graded fill: %ld vertices (uniform %ld); mean edge near the point %.3f, away %.3f\n",
+              static_cast<long>(graded->V.rows()), static_cast<long>(uniform->V.rows()), near, far);
+  EXPECT_GT(near, 0.0);
+  EXPECT_LT(near, 0.1);            // about the refinement's 0.05
+  EXPECT_GT(far, 2.0 * near);      // coarser away from it
+}
+
+TEST(MeshTetrahedralize, RefusesBadRefinements) {
+  const palpate::SurfaceMesh cube = palpate::test::cube_surface();
+  const auto error = [&](const palpate::FillRefinement& r, double max_edge = 0.0) {
+    palpate::FillOptions o;
+    o.max_edge = max_edge;
+    o.refine = {palpate::FillRefinement{}, r};  // the second one is checked (and named refine[1])
+    o.refine[0].size = 0.1;
+    const auto t = palpate::tetrahedralize(cube, o);
+    return t.ok() ? std::string("accepted") : t.error().message;
+  };
+  EXPECT_EQ(error({.center = palpate::Vec3::Zero(), .radius = 0.1, .size = 0.0}),
+            "tetrahedralize: refine[1].size is 0, expected a length > 0 in m");
+  EXPECT_EQ(error({.center = palpate::Vec3::Zero(), .radius = 0.1, .size = 0.5}, 0.25),
+            "tetrahedralize: refine[1].size is 0.5, expected a length > 0 in m, at most max_edge (0.25)");
+  EXPECT_EQ(error({.center = palpate::Vec3::Zero(), .radius = -1, .size = 0.1}),
+            "tetrahedralize: refine[1].radius is -1, expected a length ≥ 0 in m");
+  EXPECT_EQ(error({.center = palpate::Vec3(std::nan(""), 0, 0), .radius = 0.1, .size = 0.1}),
+            "tetrahedralize: refine[1].center is (nan, 0, 0), expected a finite point in m");
+  EXPECT_EQ(error({.center = palpate::Vec3::Zero(), .radius = 0.1, .size = 0.1, .growth = 0}),
+            "tetrahedralize: refine[1].growth is 0, expected a size gain per metre in (0, 10]");
 }
 
 }  // namespace

@@ -22,23 +22,15 @@ using namespace palpate;
 // A block of 5 kPa tissue, nx x ny x nz vertices `spacing` apart, bottom layer anchored, ν = 0.45.
 SpringModel tissue_block(int nx, int ny, int nz, double spacing, double density, SpringContact contact,
                          double contact_stiffness = 500.0, double poisson = 0.45) {
-  SpringNetworkOptions no;
-  no.topology = SpringTopology::tet_edges;
-  no.youngs_modulus = 5000;
-  no.poisson_ratio = poisson;
-  no.density = density;
-  no.spring_damping = 0.01;
-  for (int k = 0; k < nz; ++k)
-    for (int i = 0; i < nx; ++i) no.anchors.push_back(i + nx * (ny * k));
-  auto net = make_spring_network(spring::make_block(nx, ny, nz, spacing), no, "block");
-  EXPECT_TRUE(net.ok()) << net.error().message;
+  auto net = spring_test::tissue_network(spring::make_block(nx, ny, nz, spacing), poisson, density, 0.01,
+                                         spring_test::Held::bottom);
   SpringModelOptions mo;
   mo.solver = SpringSolver::sparse;
   mo.gravity = false;
   mo.point_damping = 0.001;
   mo.contact = contact;
   mo.contact_stiffness = contact_stiffness;
-  return spring_test::must_build(std::move(*net), mo);
+  return spring_test::must_build(std::move(net), mo);
 }
 
 struct Press {

@@ -117,16 +117,8 @@ TEST(SpringDamping, DirectionalCorrectionIsStableOnAStiffChain) {
 // or directional_correction (variant 2): stable (no reset), and it settles where the predictor
 // alone settles (the corrections change the transient, not the equilibrium).
 TEST(SpringDamping, ExactIterationsKeepTheEquilibriumAndStayStable) {
-  SpringNetworkOptions no;
-  no.topology = SpringTopology::tet_edges;
-  no.youngs_modulus = 5000;
-  no.poisson_ratio = 0.48;
-  no.density = 1060;
-  no.spring_damping = 0.01;
-  for (int k = 0; k < 5; ++k)
-    for (int i = 0; i < 5; ++i) no.anchors.push_back(i + 25 * k);
-  auto net = make_spring_network(spring::make_block(5, 5, 5, 0.005), no, "block");
-  ASSERT_TRUE(net.ok()) << net.error().message;
+  const SpringNetwork net =
+      spring_test::tissue_network(spring::make_block(5, 5, 5, 0.005), 0.48, 1060, 0.01, spring_test::Held::bottom);
   RowMat3d settled[3];
   for (int variant = 0; variant < 3; ++variant) {
     SpringModelOptions o;
@@ -134,7 +126,7 @@ TEST(SpringDamping, ExactIterationsKeepTheEquilibriumAndStayStable) {
     o.point_damping = 0.01;
     o.exact_iterations = variant == 1 ? 2 : 0;
     o.directional_correction = variant == 2;
-    const SpringModel model = spring_test::must_build(*net, o);
+    const SpringModel model = spring_test::must_build(net, o);
     SpringState s = make_state(model);
     ToolState tool;
     tool.radius = 0.004;

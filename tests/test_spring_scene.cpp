@@ -190,3 +190,46 @@ TEST(SpringScene, EveryShippedMassSpringSceneTouchesItsOrgan) {
   }
   EXPECT_GE(scenes, 2);
 }
+
+// The fill keys (fill_max_edge, fill_refine_*) reach the tetrahedral fill of a surface organ: the
+// liver's boundary filled with a fine region around a point on its top has more vertices than the
+// plain fill, and more of them near that point; a refined size above fill_max_edge is refused
+// with a message naming both keys.
+TEST(SpringScene, FillKeysGradeTheTetrahedralFillOfASurfaceOrgan) {
+  palpate::SpringMaterialDef m;
+  m.topology = "tet_edges";
+  m.youngs_modulus = 5000;
+  m.density = 1060;
+  palpate::MeshRef ref;
+  ref.file = PALPATE_SOURCE_DIR "/data/meshes/liver_tet_boundary.obj";
+  m.fill_max_edge = 0.8;
+  auto plain_options = palpate::network_options(m, {}, "liver");
+  ASSERT_TRUE(plain_options.ok()) << plain_options.error().message;
+  auto plain = palpate::spring_network_from_file(ref, *plain_options);
+  ASSERT_TRUE(plain.ok()) << plain.error().message;
+  // The point: the surface vertex with the largest y (its top).
+  Eigen::Index top = 0;
+  plain->rest.col(1).maxCoeff(&top);
+  const palpate::Vec3 at = plain->rest.row(top).transpose();
+  m.fill_refine_size = 0.15;
+  m.fill_refine_radius = 0.6;
+  m.fill_refine_center = at;
+  auto graded_options = palpate::network_options(m, {}, "liver");
+  ASSERT_TRUE(graded_options.ok()) << graded_options.error().message;
+  auto graded = palpate::spring_network_from_file(ref, *graded_options);
+  ASSERT_TRUE(graded.ok()) << graded.error().message;
+  const auto near = [&](const palpate::SpringNetwork& n) {
+    int count = 0;
+    for (Eigen::Index i = 0; i < n.rest.rows(); ++i) count += (n.rest.row(i).transpose() - at).norm() < 0.6;
+    return count;
+  };
+  std::printf("liver fill: %ld vertices (%d within 0.6 of the top), graded %ld (%d)\n",
+              static_cast<long>(plain->rest.rows()), near(*plain), static_cast<long>(graded->rest.rows()), near(*graded));
+  EXPECT_GT(graded->rest.rows(), plain->rest.rows());
+  EXPECT_GT(near(*graded), 3 * near(*plain));
+  m.fill_refine_size = 1.0;
+  auto bad = palpate::network_options(m, {}, "liver");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().message,
+            "liver: fill_refine_size 1 is larger than fill_max_edge 0.8: the refined region must be finer than the rest");
+}

@@ -130,24 +130,15 @@ TEST(SpringVolume, SiLiverOnItsBedSagsMillimetresWithNoInvertedTetrahedron) {
 // tolerance is for a nearly incompressible organ, ν = 0.49: within 4 %, and no element inverts.
 TEST(SpringVolume, BlockCompressedByThirtyPercentKeepsItsVolume) {
   const int n = 7;
-  const double h = 0.005, height = (n - 1) * h;
+  const double h = 0.005;
   const TetMesh mesh = spring::make_block(n, n, n, h);
   auto run = [&](double poisson) {
-    SpringNetworkOptions no;
-    no.topology = SpringTopology::tet_edges;
-    no.youngs_modulus = 5000;
-    no.poisson_ratio = poisson;
-    no.density = 1060;
-    no.spring_damping = 0.02;
-    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
-      if (mesh.V(i, 1) < 1e-9 || mesh.V(i, 1) > height - 1e-9) no.anchors.push_back(static_cast<int>(i));
-    auto net = make_spring_network(mesh, no, "block");
-    EXPECT_TRUE(net.ok()) << net.error().message;
+    auto net = spring_test::tissue_network(mesh, poisson, 1060, 0.02, spring_test::Held::bottom_and_top);
     SpringModelOptions mo;
     mo.solver = SpringSolver::sparse;
     mo.gravity = false;
     mo.point_damping = 0.01;
-    const SpringModel model = spring_test::must_build(std::move(*net), mo);
+    const SpringModel model = spring_test::must_build(std::move(net), mo);
     SpringState s = make_state(model);
     s.x.col(1) *= 0.7;  // squeezed uniformly, then let go between the plates
     for (int k = 0; k < 1500; ++k) EXPECT_TRUE(step(model, s, nullptr));
@@ -271,21 +262,12 @@ TEST(SpringVolume, VectorisedPassMatchesTheScalarOne) {
 // recorded, not asserted.
 TEST(SpringVolume, PredictorsSettleWhereTheExactSolverDoes) {
   const TetMesh mesh = spring::make_block(4, 4, 4, 0.01);
-  SpringNetworkOptions no;
-  no.topology = SpringTopology::tet_edges;
-  no.youngs_modulus = 5000;
-  no.poisson_ratio = 0.48;
-  no.density = 1060;
-  no.spring_damping = 0.02;
-  for (int k = 0; k < 4; ++k)
-    for (int i = 0; i < 4; ++i) no.anchors.push_back(i + 16 * k);  // the y = 0 layer
-  auto net = make_spring_network(mesh, no, "block");
-  ASSERT_TRUE(net.ok()) << net.error().message;
+  const SpringNetwork net = spring_test::tissue_network(mesh, 0.48, 1060, 0.02, spring_test::Held::bottom);
   SpringModelOptions oe;
   oe.solver = SpringSolver::exact;
   oe.dt = 0.05;
   oe.point_damping = 0.01;
-  const SpringModel settle = spring_test::must_build(*net, oe);
+  const SpringModel settle = spring_test::must_build(net, oe);
   SpringState ss = make_state(settle);
   for (int i = 0; i < 200; ++i) ASSERT_TRUE(step(settle, ss, nullptr));
   const double sag = max_displacement(settle, ss);
@@ -294,7 +276,7 @@ TEST(SpringVolume, PredictorsSettleWhereTheExactSolverDoes) {
     SpringModelOptions o;
     o.solver = solver;
     o.point_damping = 0.01;
-    const SpringModel fast = spring_test::must_build(*net, o);
+    const SpringModel fast = spring_test::must_build(net, o);
     SpringState sf = make_state(fast);
     for (int i = 0; i < 20000; ++i) {
       ASSERT_TRUE(step(fast, sf, nullptr));

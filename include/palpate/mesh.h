@@ -67,6 +67,26 @@ void compute_normals(SurfaceMesh& m);
 // validated and positively oriented; an open or non-manifold surface is refused.
 Result<TetMesh> tetrahedralize(const SurfaceMesh& surface, double max_edge = 0.0);
 
+// A region of a tetrahedral fill meshed finer (a graded mesh, e.g. under an indenter): within
+// `radius` (m) of `center` the tetrahedra's edges are about `size` (m); beyond it the size grows
+// linearly by `growth` (m per m of distance) until it meets `FillOptions::max_edge` or the
+// surface's own edges. The surface's triangles are kept as they are (a fine region at the boundary
+// needs a fine surface there).
+struct FillRefinement {
+  Vec3 center = Vec3::Zero();
+  double radius = 0.0;  // m, ≥ 0
+  double size = 0.0;    // m, > 0 (and ≤ max_edge when max_edge > 0)
+  double growth = 0.3;  // size gained per metre of distance beyond radius, > 0 and ≤ 10
+};
+struct FillOptions {
+  double max_edge = 0.0;                // m, 0 = as the surface's edges
+  std::vector<FillRefinement> refine;   // each region's size applies where it is the smallest
+};
+// The same fill with a size field: the size at a point is the smallest of max_edge (when > 0) and
+// each refinement's size + growth · max(0, distance − radius). Options are checked first (errors
+// name the refinement and the field, e.g. "tetrahedralize: refine[0].size is -1, expected ...").
+Result<TetMesh> tetrahedralize(const SurfaceMesh& surface, const FillOptions& options);
+
 // The boundary triangles of a tetrahedral mesh (faces used by one tetrahedron), outward oriented
 // (also for inverted tetrahedra), over the same vertices, in tetrahedron order; normals computed.
 SurfaceMesh boundary_surface(const TetMesh& m);

@@ -87,6 +87,9 @@ struct SpringNetworkOptions {
   // network responds as an isotropic solid of (E, ν) (docs/models/mass-spring.md). 0: springs only.
   double poisson_ratio = 0.0;
   std::vector<int> anchors;      // fixed vertex indices
+  // How spring_network_from_file fills a surface with tetrahedra (tet_edges): largest size and
+  // graded regions (tetrahedralize). Unused for tet files and other topologies.
+  FillOptions fill;
 };
 
 // Parse a material's strings (topology, solver, predictor_policy) into options; errors name `where`.
@@ -226,6 +229,8 @@ struct SpringModel {
   double uniform_stiffness = 0;         // N/m when every spring has this stiffness (else 0): K_L v in O(n)
   std::vector<double> predictor_stiffness;  // (s) N/m, each spring's weight in A (predictor_stiffness())
   bool volume_term = false;             // the network has tetrahedra with a volume modulus > 0
+  std::vector<double> volume_scale;     // (tets, with volume_term) κ / (36 V0), the volume pass's per-tet factor
+  std::vector<int> surface_vertices;    // the vertices of network.triangles, each once, ascending
   std::vector<float> rest_length_single;  // all-pairs with single_precision and uniform springs: (s) m
   bool uniform_damping = false;         // every spring has the same damping (the all-pairs kernel reads
                                         // no per-spring stiffness or damping when both are uniform)
@@ -283,9 +288,14 @@ struct SpringState {
   // What the last step found.
   // Surface contact: the contact force the last step ended with, on each vertex it acts on (the next
   // step starts with it as an external force, then corrects it), and its size F (N).
-  static constexpr int kMaxContactVertices = 128;
-  static constexpr int kMaxContactTriangles = 64;
+  // (A fine mesh under a large tool — a graded mesh under an indenter — holds a few hundred.)
+  static constexpr int kMaxContactVertices = 256;
+  static constexpr int kMaxContactTriangles = 256;
   std::array<int, kMaxContactVertices> contact_vertex{};
+  std::vector<std::uint8_t> contact_code;  // per vertex, scratch of the contact's cull (which side of the
+                                           // tool's box it lies on); sized by make_state
+  std::vector<int> contact_slot;     // per vertex, its index in contact_vertex while a step builds it, else −1
+                                     // (scratch sized by make_state; empty: a linear search)
   std::array<Vec3, kMaxContactVertices> contact_load{};  // N, on the organ at contact_vertex
   int contact_vertex_count = 0;
   double contact_force = 0;          // N, F = k_c · depth once settled

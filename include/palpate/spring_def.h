@@ -29,6 +29,11 @@ struct SpringMaterialDef {
   bool single_precision = false;   // per-tick predictor (and uniform all-pairs forces) in float
   int exact_iterations = 0;        // conjugate-gradient steps toward exact backward Euler per tick
   bool directional_correction = false;  // the right-hand side's −hKv with each spring's exact stiffness
+  double fill_max_edge = 0.0;      // m; a surface filled with tetrahedra (tet_edges): their largest size, 0 = as the surface's edges
+  double fill_refine_size = 0.0;   // m; > 0: the fill is graded, this size within fill_refine_radius of fill_refine_center
+  Vec3 fill_refine_center = Vec3::Zero();  // m, in the scene's frame (after the mesh's scale and translate)
+  double fill_refine_radius = 0.0;  // m
+  double fill_refine_growth = 0.3;  // m of size per m of distance beyond fill_refine_radius
   double physics_rate = 0.0;       // Hz; > 0: the organ steps on its own thread at this rate (its
                                    // predictor built for 1/physics_rate s), the haptic thread solving
                                    // the contact against its compliance every tick (docs/haptics.md)

@@ -16,7 +16,7 @@ Result<TetMesh> read_tetgen(const std::filesystem::path& file);  // tet_tetgen.c
 Result<TetMesh> read_vtk(const std::filesystem::path& file);     // tet_vtk.cpp, legacy ASCII
 
 // Gmsh's Delaunay fill of a closed, manifold surface (tet_gmsh.cpp); orientation not yet fixed.
-Result<TetMesh> gmsh_fill(const SurfaceMesh& surface, double max_edge, const std::string& where);
+Result<TetMesh> gmsh_fill(const SurfaceMesh& surface, const FillOptions& options, const std::string& where);
 
 // An error when `file` is missing, not a regular file or unreadable; names the file.
 Status check_readable(const std::filesystem::path& file);

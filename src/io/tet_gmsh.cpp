@@ -382,9 +382,22 @@ Result<TetMesh> read_gmsh(const std::filesystem::path& file) {
   return mesh;
 }
 
+// The fill's size at a point: the smallest of each refinement's graded size (FillOptions).
+static double refined_size(const FillOptions& o, double x, double y, double z) {
+  double size = o.max_edge > 0 ? o.max_edge : 1e22;
+  for (const FillRefinement& r : o.refine) {
+    const double d = (Vec3(x, y, z) - r.center).norm();
+    size = std::min(size, r.size + r.growth * std::max(0.0, d - r.radius));
+  }
+  return size;
+}
+
 // Gmsh's Delaunay mesher fills the volume bounded by the surface's own triangles (kept as a
-// discrete surface, not remeshed), adding interior nodes as Mesh.MeshSizeMax demands.
-Result<TetMesh> gmsh_fill(const SurfaceMesh& surface, double max_edge, const std::string& where) {
+// discrete surface, not remeshed), adding interior nodes as Mesh.MeshSizeMax and, with
+// refinements, a size callback (the smaller of it and the sizes interpolated from the boundary's
+// edges) demand.
+Result<TetMesh> gmsh_fill(const SurfaceMesh& surface, const FillOptions& options, const std::string& where) {
+  const double max_edge = options.max_edge;
   // Only the vertices the triangles use go to Gmsh: it would keep stray nodes in the surface.
   std::vector<int> new_index(static_cast<size_t>(surface.V.rows()), -1);
   std::vector<double> coords;
@@ -415,7 +428,17 @@ Result<TetMesh> gmsh_fill(const SurfaceMesh& surface, double max_edge, const std
     gmsh::model::geo::addVolume({loop});
     gmsh::model::geo::synchronize();
     gmsh::option::setNumber("Mesh.MeshSizeMax", max_edge > 0 ? max_edge : 1e22);  // 1e22: Gmsh's default
-    gmsh::model::mesh::generate(3);
+    if (!options.refine.empty())
+      gmsh::model::mesh::setSizeCallback(
+          [&options](int, int, double x, double y, double z) { return refined_size(options, x, y, z); });
+    try {
+      gmsh::model::mesh::generate(3);
+    } catch (...) {
+      gmsh::model::mesh::removeSizeCallback();
+      gmsh::option::setNumber("Mesh.MeshSizeMax", 1e22);
+      throw;
+    }
+    gmsh::model::mesh::removeSizeCallback();
     gmsh::option::setNumber("Mesh.MeshSizeMax", 1e22);
     mesh = current_tets(where);
   });
@@ -430,13 +453,32 @@ Result<TetMesh> gmsh_fill(const SurfaceMesh& surface, double max_edge, const std
 namespace palpate {
 
 Result<TetMesh> tetrahedralize(const SurfaceMesh& surface, double max_edge) {
+  return tetrahedralize(surface, FillOptions{.max_edge = max_edge, .refine = {}});
+}
+
+Result<TetMesh> tetrahedralize(const SurfaceMesh& surface, const FillOptions& options) {
   const std::string where = "tetrahedralize";
+  const double max_edge = options.max_edge;
   if (!std::isfinite(max_edge) || max_edge < 0)
     return Error{fmt::format("{}: max_edge is {}, expected 0 (as the surface's edges) or a positive length in m",
                              where, max_edge)};
+  for (size_t k = 0; k < options.refine.size(); ++k) {
+    const FillRefinement& r = options.refine[k];
+    if (!r.center.allFinite())
+      return Error{fmt::format("{}: refine[{}].center is ({}, {}, {}), expected a finite point in m", where, k,
+                               r.center.x(), r.center.y(), r.center.z())};
+    if (!std::isfinite(r.radius) || r.radius < 0)
+      return Error{fmt::format("{}: refine[{}].radius is {}, expected a length ≥ 0 in m", where, k, r.radius)};
+    if (!std::isfinite(r.size) || r.size <= 0 || (max_edge > 0 && r.size > max_edge))
+      return Error{fmt::format("{}: refine[{}].size is {}, expected a length > 0 in m{}", where, k, r.size,
+                               max_edge > 0 ? fmt::format(", at most max_edge ({})", max_edge) : std::string())};
+    if (!std::isfinite(r.growth) || r.growth <= 0 || r.growth > 10)
+      return Error{fmt::format("{}: refine[{}].growth is {}, expected a size gain per metre in (0, 10]", where, k,
+                               r.growth)};
+  }
   if (Status s = validate(surface, where, SurfaceRequirements{.manifold = true, .closed = true}); !s)
     return s.error();
-  Result<TetMesh> mesh = io::gmsh_fill(surface, max_edge, where);
+  Result<TetMesh> mesh = io::gmsh_fill(surface, options, where);
   if (!mesh) return mesh;
   // Gmsh's tetrahedra follow its own reference element (positive), but an inward-facing
   // surface may hand back the mirror image: orient each one positively, whatever came out.

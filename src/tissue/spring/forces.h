@@ -57,7 +57,9 @@ bool has_avx512() noexcept;
 
 // Which kernel a call takes: best, the fastest this processor runs (the step's choice); the others
 // force one (the tests compare them). One this processor lacks falls back to the next narrower.
-enum class SpringKernel { best, scalar, avx2, avx512 };
+// volume_divide: as best, but the volume pass in its first form (a division per tetrahedron), for
+// the benchmarks' before/after comparison.
+enum class SpringKernel { best, scalar, avx2, avx512, volume_divide };
 
 inline void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat3d& x, const RowMat3d& v,
                                                  RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised) noexcept {

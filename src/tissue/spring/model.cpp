@@ -227,6 +227,17 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
   m.anchored = anchored_flags(m.network);
   m.predictor_stiffness = predictor_stiffness(m.network);
   m.volume_term = !m.network.tets.empty() && m.network.volume_modulus > 0;
+  m.volume_scale.clear();
+  if (m.volume_term)
+    for (double v0 : m.network.rest_volume) m.volume_scale.push_back(m.network.volume_modulus / (36 * v0));
+  {
+    std::vector<std::uint8_t> on_surface(m.network.size(), 0);
+    for (const auto& t : m.network.triangles)
+      for (int v : t) on_surface[static_cast<size_t>(v)] = 1;
+    m.surface_vertices.clear();
+    for (size_t i = 0; i < on_surface.size(); ++i)
+      if (on_surface[i]) m.surface_vertices.push_back(static_cast<int>(i));
+  }
   const size_t n = m.network.size();
   const double h = options.dt;
   m.max_contact_stiffness.resize(n);
@@ -297,6 +308,8 @@ SpringState make_state(const SpringModel& model) {
                             spring::supernodal_scratch(model.predictor, model.supernodes));
   s.soa.assign(soa, 0.0);
   s.soa_single.assign(model.rest_length_single.empty() ? 0 : static_cast<size_t>(n) * 9, 0.0f);
+  s.contact_slot.assign(static_cast<size_t>(n), -1);
+  s.contact_code.assign(static_cast<size_t>(n), 0);
   return s;
 }
 

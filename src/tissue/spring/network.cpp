@@ -158,6 +158,16 @@ Result<SpringNetworkOptions> network_options(const SpringMaterialDef& m, std::ve
     return Error{where + ": poisson_ratio needs youngs_modulus (the volume term's modulus is derived from both)"};
   if (m.poisson_ratio > 0 && o.topology == SpringTopology::all_pairs)
     return Error{where + ": poisson_ratio needs tet_edges or edges on a tetrahedral mesh, not all_pairs"};
+  o.fill.max_edge = m.fill_max_edge;
+  if (m.fill_refine_size > 0) {
+    if (m.fill_max_edge > 0 && m.fill_refine_size > m.fill_max_edge)
+      return Error{where + ": fill_refine_size " + fmt_num(m.fill_refine_size) + " is larger than fill_max_edge " +
+                   fmt_num(m.fill_max_edge) + ": the refined region must be finer than the rest"};
+    if (o.topology != SpringTopology::tet_edges)
+      return Error{where + ": fill_refine_size grades the tetrahedral fill of a surface: it needs topology tet_edges"};
+    o.fill.refine.push_back(FillRefinement{.center = m.fill_refine_center, .radius = m.fill_refine_radius,
+                                           .size = m.fill_refine_size, .growth = m.fill_refine_growth});
+  }
   o.anchors = std::move(anchors);
   return o;
 }

@@ -44,6 +44,18 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
        "the predictor's right-hand side with each spring's exact (directional) stiffness: close to backward "
        "Euler's damping of transverse motion with no extra solve (tet and edge networks; not with "
        "exact_iterations)"},
+      {"fill_max_edge", &D::fill_max_edge, 0.0, 10.0, "m",
+       "a surface mesh filled with tetrahedra (topology tet_edges): the tetrahedra's largest size, 0 = as the "
+       "surface's edges"},
+      {"fill_refine_size", &D::fill_refine_size, 0.0, 10.0, "m",
+       "when > 0, the fill is graded: tetrahedra of about this size within fill_refine_radius of "
+       "fill_refine_center, growing by fill_refine_growth per metre beyond (e.g. fine under an indenter, "
+       "coarse away); the surface's own triangles are kept"},
+      {"fill_refine_center", &D::fill_refine_center, -1e6, 1e6, "m",
+       "centre of the finely filled region, in the scene's frame (after the mesh's scale and translate)"},
+      {"fill_refine_radius", &D::fill_refine_radius, 0.0, 10.0, "m", "radius of the finely filled region"},
+      {"fill_refine_growth", &D::fill_refine_growth, 1e-3, 10.0, "",
+       "size gained per metre of distance beyond fill_refine_radius (m/m)"},
       {"physics_rate", &D::physics_rate, 0.0, 1000.0, "Hz",
        "when > 0, the organ steps on its own thread at this rate (an organ too large for 1 ms) and the haptic "
        "thread solves the contact against its compliance every tick; `palpate run --physics-rate` overrides it"},

@@ -18,13 +18,50 @@ double signed_volume6(const RowMat3d& V, int a, int b, int c, int d) {
 }  // namespace
 
 TetMesh make_block(int nx, int ny, int nz, double spacing, const Vec3& origin) {
+  std::vector<double> xs(static_cast<size_t>(std::max(nx, 0))), ys(static_cast<size_t>(std::max(ny, 0))),
+      zs(static_cast<size_t>(std::max(nz, 0)));
+  for (int i = 0; i < nx; ++i) xs[static_cast<size_t>(i)] = origin.x() + spacing * i;
+  for (int j = 0; j < ny; ++j) ys[static_cast<size_t>(j)] = origin.y() + spacing * j;
+  for (int k = 0; k < nz; ++k) zs[static_cast<size_t>(k)] = origin.z() + spacing * k;
+  return make_block(xs, ys, zs);
+}
+
+std::vector<double> graded_coordinates(double from, double to, double fine_from, double fine_to, double fine,
+                                       double coarse, double ratio) {
+  std::vector<double> mid;
+  const int cells = std::max(1, static_cast<int>(std::lround((fine_to - fine_from) / fine)));
+  for (int i = 0; i <= cells; ++i) mid.push_back(fine_from + (fine_to - fine_from) * i / cells);
+  // One graded side: offsets from the fine region's edge out to `length`, stretched to end on it.
+  const auto side = [&](double length) {
+    std::vector<double> at;
+    double p = 0, size = fine;
+    while (length > 0 && p < length - 0.5 * std::min(coarse, size * ratio)) {
+      size = std::min(coarse, size * ratio);
+      p += size;
+      at.push_back(p);
+    }
+    if (at.empty() && length > 0) at.push_back(length);
+    for (double& a : at) a *= length / at.back();
+    return at;
+  };
+  std::vector<double> out;
+  const auto low = side(fine_from - from);
+  for (auto it = low.rbegin(); it != low.rend(); ++it) out.push_back(fine_from - *it);
+  out.insert(out.end(), mid.begin(), mid.end());
+  for (double a : side(to - fine_to)) out.push_back(fine_to + a);
+  return out;
+}
+
+TetMesh make_block(const std::vector<double>& xs, const std::vector<double>& ys, const std::vector<double>& zs) {
+  const int nx = static_cast<int>(xs.size()), ny = static_cast<int>(ys.size()), nz = static_cast<int>(zs.size());
   TetMesh m;
   m.V.resize(static_cast<Eigen::Index>(nx) * ny * nz, 3);
   auto id = [&](int i, int j, int k) { return i + nx * (j + ny * k); };
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i)
-        m.V.row(id(i, j, k)) = (origin + spacing * Vec3(i, j, k)).transpose();
+        m.V.row(id(i, j, k)) =
+            Vec3(xs[static_cast<size_t>(i)], ys[static_cast<size_t>(j)], zs[static_cast<size_t>(k)]).transpose();
   // Five-tet split of a cube: corners c[b] with b = x + 2y + 4z. Even cubes keep the tet
   // {1,2,4,7} in the middle, odd cubes {0,3,5,6}: shared faces then get the same diagonal.
   static constexpr int kEven[5][4] = {{1, 2, 4, 7}, {0, 1, 2, 4}, {3, 1, 2, 7}, {5, 1, 4, 7}, {6, 2, 4, 7}};

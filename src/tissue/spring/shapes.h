@@ -14,6 +14,15 @@ namespace palpate::spring {
 // tetrahedra, alternating with the cube's parity so that neighbouring cubes share face diagonals
 // (10³ vertices → 5,130 edges; 20³ → 44,460). Vertex (i, j, k) has index i + nx (j + ny k).
 TetMesh make_block(int nx, int ny, int nz, double spacing, const Vec3& origin = Vec3::Zero());
+// The same five-tet block over given grid lines (each increasing, at least two): e.g. a grid graded
+// toward an indenter with graded_coordinates.
+TetMesh make_block(const std::vector<double>& xs, const std::vector<double>& ys, const std::vector<double>& zs);
+
+// Grid lines from `from` to `to`: spacing about `fine` over [fine_from, fine_to] (inside [from, to]),
+// then cells growing by `ratio` per cell away from it, capped at `coarse`; each graded side is
+// stretched evenly so that it ends exactly at `from` / `to`.
+std::vector<double> graded_coordinates(double from, double to, double fine_from, double fine_to, double fine,
+                                       double coarse, double ratio);
 
 // A flat sheet of triangles over a grid in the plane through patch.center normal to patch.normal.
 SurfaceMesh make_sheet(const PatchDef& patch);

@@ -756,13 +756,14 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
     Vec3 w, p, q;  // barycentric weights and point on the triangle; the tool's point closest to it
     double phi;    // m, the depth it is pressed by
     Vec3 n;        // its direction (unit), out of the organ
+    bool behind = false;  // a shaft pushed behind the face: the whole triangle pressed by phi along n
   };
   std::array<Hit, SpringState::kMaxContactTriangles> hits;
   int nhits = 0;
   int nearest = -1;
   double nearest_d2 = std::numeric_limits<double>::infinity(), nearest_cos = 0;
   Vec3 nearest_w = Vec3::Zero(), nearest_p = Vec3::Zero();
-  for (size_t t = 0; t < net.triangles.size(); ++t) {
+  auto visit = [&](size_t t) {
     const auto& T = net.triangles[t];
     const Vec3 a = s.x.row(T[0]).transpose(), b = s.x.row(T[1]).transpose(), q = s.x.row(T[2]).transpose();
     // Bounding-box distance first: most triangles are far.
@@ -770,7 +771,7 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
     const double box_d2 = (c.cwiseMax(lo).cwiseMin(hi) - c).squaredNorm();
     const double tool_box_d2 =
         shaft ? (lo - tool_hi).cwiseMax(tool_lo - hi).cwiseMax(0.0).squaredNorm() : box_d2;
-    if (tool_box_d2 >= reach * reach && (!search_inside || box_d2 > nearest_d2)) continue;
+    if (tool_box_d2 >= reach * reach && (!search_inside || box_d2 > nearest_d2)) return;
     Vec3 w;
     const Vec3 p = closest_on_triangle(c, a, b, q, w);
     const double d2 = (c - p).squaredNorm();
@@ -787,9 +788,9 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
         nearest = static_cast<int>(t); nearest_cos = cosine; nearest_w = w; nearest_p = p;
       }
     }
-    Hit hit{static_cast<int>(t), 0.0, w, p, c, 0.0, Vec3::Zero()};
+    Hit hit{static_cast<int>(t), 0.0, w, p, c, 0.0, Vec3::Zero(), false};
     if (shaft) {
-      if (tool_box_d2 >= reach * reach) continue;
+      if (tool_box_d2 >= reach * reach) return;
       hit.p = closest_segment_triangle(back, c, a, b, q, hit.q, hit.w);
       hit.dist = (hit.q - hit.p).norm();
       const Vec3 nf = (b - a).cross(q - a);
@@ -800,12 +801,13 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
         hit.n = (hit.q - hit.p) / hit.dist;
       } else if (behind > 0 && over && hit.dist < behind && side <= 0 && nf.squaredNorm() > 0) {
         hit.phi = r + hit.dist;  // behind the face (or through it): pushed out along its normal
+        hit.behind = true;
         hit.n = nf.normalized();
       } else {
-        continue;
+        return;
       }
     } else {
-      if (d2 >= r * r) continue;
+      if (d2 >= r * r) return;
       hit.dist = std::sqrt(d2);
       hit.phi = r - hit.dist;
     }
@@ -816,18 +818,107 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
       for (int k = 1; k < nhits; ++k) if (hits[static_cast<size_t>(k)].phi < hits[static_cast<size_t>(far)].phi) far = k;
       if (hit.phi > hits[static_cast<size_t>(far)].phi) hits[static_cast<size_t>(far)] = hit;
     }
+    };
+  // The cull: each surface vertex's outcode against the tool's box grown by reach (a bit per side per
+  // axis); a triangle whose three corners share a bit lies wholly outside that box, so its bounding
+  // box is farther than reach from the tool (it can be no hit) and from the tip. Those are visited
+  // only when the nearest triangle is wanted and none within reach was found among the others.
+  const size_t n_vertices = static_cast<size_t>(s.x.rows());
+  const bool cull = s.contact_code.size() == n_vertices && !model.surface_vertices.empty();
+  if (cull) {
+    const Vec3 lo = tool_lo - Vec3::Constant(reach), hi = tool_hi + Vec3::Constant(reach);
+    const double* xd = s.x.data();
+    for (const int v : model.surface_vertices) {
+      const double* p = xd + 3 * static_cast<size_t>(v);
+      s.contact_code[static_cast<size_t>(v)] = static_cast<std::uint8_t>(
+          (p[0] < lo.x()) | (p[0] > hi.x()) << 1 | (p[1] < lo.y()) << 2 | (p[1] > hi.y()) << 3 |
+          (p[2] < lo.z()) << 4 | (p[2] > hi.z()) << 5);
+    }
+    const std::uint8_t* code = s.contact_code.data();
+    const auto outside = [&](size_t t) {
+      const auto& T = net.triangles[t];
+      return (code[T[0]] & code[T[1]] & code[T[2]]) != 0;
+    };
+    for (size_t t = 0; t < net.triangles.size(); ++t)
+      if (!outside(t)) visit(t);
+    if (search_inside && !(nearest_d2 < reach * reach))
+      for (size_t t = 0; t < net.triangles.size(); ++t)
+        if (outside(t)) visit(t);
+  } else {
+    for (size_t t = 0; t < net.triangles.size(); ++t) visit(t);
   }
   // (A shaft that presses triangles is carried by them even when its tip is inside.)
   const bool inside = model.closed_surface && nearest >= 0 && nearest_cos < 0 &&
                       (search_inside || nearest_d2 < r * r) && !(shaft && nhits > 0);
   // Contact vertices and their direction sums g_i (up to kMaxContactVertices).
   std::array<Vec3, SpringState::kMaxContactVertices> g;
+  const bool slots = s.contact_slot.size() == static_cast<size_t>(s.x.rows());
   auto add = [&](int vertex, const Vec3& gi) {
-    for (int k = 0; k < s.contact_vertex_count; ++k)
-      if (s.contact_vertex[static_cast<size_t>(k)] == vertex) { g[static_cast<size_t>(k)] += gi; return; }
-    if (s.contact_vertex_count == SpringState::kMaxContactVertices) return;
+    if (slots) {
+      int& slot = s.contact_slot[static_cast<size_t>(vertex)];
+      if (slot >= 0) { g[static_cast<size_t>(slot)] += gi; return; }
+      if (s.contact_vertex_count == SpringState::kMaxContactVertices) return;
+      slot = s.contact_vertex_count;
+    } else {
+      for (int k = 0; k < s.contact_vertex_count; ++k)
+        if (s.contact_vertex[static_cast<size_t>(k)] == vertex) { g[static_cast<size_t>(k)] += gi; return; }
+      if (s.contact_vertex_count == SpringState::kMaxContactVertices) return;
+    }
     s.contact_vertex[static_cast<size_t>(s.contact_vertex_count)] = vertex;
     g[static_cast<size_t>(s.contact_vertex_count++)] = gi;
+  };
+  auto clear_slots = [&] {
+    if (slots)
+      for (int k = 0; k < s.contact_vertex_count; ++k) s.contact_slot[static_cast<size_t>(s.contact_vertex[static_cast<size_t>(k)])] = -1;
+  };
+  // The tool's pressure over the part of triangle t inside it (docs/models/mass-spring.md, Contact):
+  // p ∝ the local depth r − |q − x| along (q − x)/|q − x|, q the tool's point nearest x (the centre
+  // of a sphere; on a needle's shaft, the segment's point nearest x), integrated at the centroids of
+  // an N × N split of the triangle (N = ⌈6 × its longest rest edge / r⌉, 2 to 6) and shared by each
+  // point's barycentric weights. Added to g unscaled; returns the triangle's resultant. Each point
+  // joins with zero depth, so the load moves continuously as the patch grows over the mesh.
+  const Vec3 axis_seg = c - back;
+  const double axis_len2 = axis_seg.squaredNorm();
+  auto rest_edge_of = [&](int tri) {
+    const auto& T = net.triangles[static_cast<size_t>(tri)];
+    return std::sqrt(std::max({(net.rest.row(T[1]) - net.rest.row(T[0])).squaredNorm(),
+                               (net.rest.row(T[2]) - net.rest.row(T[1])).squaredNorm(),
+                               (net.rest.row(T[0]) - net.rest.row(T[2])).squaredNorm()}));
+  };
+  auto spread_over_area = [&](int tri) -> Vec3 {
+    const auto& T = net.triangles[static_cast<size_t>(tri)];
+    const Vec3 a = s.x.row(T[0]).transpose(), b = s.x.row(T[1]).transpose(), q = s.x.row(T[2]).transpose();
+    const double rest_edge = rest_edge_of(tri);
+    const int N = static_cast<int>(std::clamp(std::ceil(6.0 * rest_edge / r), 2.0, 6.0));
+    const double dA = 0.5 * (b - a).cross(q - a).norm() / (N * N);
+    Vec3 corner[3] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+    Vec3 total = Vec3::Zero();
+    const double r2 = r * r;
+    for (int i = 0; i < N; ++i)
+      for (int j = 0; i + j < N; ++j)
+        for (int down = 0; down < 2; ++down) {
+          if (down && i + j > N - 2) break;
+          const double u = (i + (down ? 2.0 : 1.0) / 3.0) / N, v = (j + (down ? 2.0 : 1.0) / 3.0) / N;
+          const double w0 = 1.0 - u - v;
+          const Vec3 x = w0 * a + u * b + v * q;
+          Vec3 d = c - x;
+          if (axis_len2 > 0) {
+            const double along = std::clamp((x - back).dot(axis_seg) / axis_len2, 0.0, 1.0);
+            if (along < 1.0) d = back + along * axis_seg - x;
+          }
+          const double dist2 = d.squaredNorm();
+          if (dist2 >= r2) continue;
+          const double dist = std::sqrt(dist2);
+          if (!(dist > 1e-12 * r)) continue;
+          const Vec3 load = ((r - dist) * dA / dist) * d;
+          corner[0] += w0 * load;
+          corner[1] += u * load;
+          corner[2] += v * load;
+          total += load;
+        }
+    for (int k = 0; k < 3; ++k)
+      if (corner[k].squaredNorm() > 0) add(T[static_cast<size_t>(k)], corner[k]);
+    return total;
   };
   double depth = 0;
   if (inside) {
@@ -855,11 +946,51 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
       depth = std::max(depth, hit.phi);
       hits[static_cast<size_t>(used++)] = hit;
     }
-    // Weights φ_t scaled so that Σ ω_t n_t is a unit vector: the tool feels exactly F along it.
+    // The pressure over each triangle's area inside the tool (a triangle a shaft was pushed behind:
+    // its whole area at its depth φ_t, at the shaft's closest point), scaled so that Σ_i g_i is a
+    // unit vector (the tool feels exactly F along it).
+    // Only where the triangles are small against the tool (every pressed triangle's longest rest
+    // edge ≤ r/2: the patch spans several of them, and rings of vertices join it as it grows). On a
+    // mesh coarse against the tool the patch lies on one or two triangles and each triangle's
+    // closest point carries it (below), as validated there (docs/models/mass-spring.md, Contact).
+    bool resolved = used > 0;
+    for (int k = 0; k < used && resolved; ++k)
+      resolved = hits[static_cast<size_t>(k)].behind || rest_edge_of(hits[static_cast<size_t>(k)].tri) <= 0.5 * r;
+    bool spread = false;
+    if (resolved) {
+      Vec3 resultant = Vec3::Zero();
+      for (int k = 0; k < used; ++k) {
+        const Hit& hit = hits[static_cast<size_t>(k)];
+        if (!hit.behind) {
+          resultant += spread_over_area(hit.tri);
+          continue;
+        }
+        const auto& T = net.triangles[static_cast<size_t>(hit.tri)];
+        const double area = 0.5 * (s.x.row(T[1]) - s.x.row(T[0]))
+                                      .transpose()
+                                      .cross((s.x.row(T[2]) - s.x.row(T[0])).transpose())
+                                      .norm();
+        const Vec3 load = hit.phi * area * hit.n;
+        for (int q = 0; q < 3; ++q)
+          if (hit.w[q] > 0) add(T[static_cast<size_t>(q)], hit.w[q] * load);
+        resultant += load;
+      }
+      const double norm = resultant.norm();
+      if (norm > 0) {
+        for (int k = 0; k < s.contact_vertex_count; ++k) g[static_cast<size_t>(k)] /= norm;
+        spread = true;
+      } else {
+        clear_slots();
+        s.contact_vertex_count = 0;
+      }
+    }
+    // A needle's shaft, or a patch smaller than the sampling above (a first touch, a small probe on
+    // a coarse mesh): each triangle's weight φ_t at its closest point, scaled so that Σ ω_t n_t is a
+    // unit vector.
     Vec3 resultant = Vec3::Zero();
     for (int k = 0; k < used; ++k) resultant += hits[static_cast<size_t>(k)].phi * hits[static_cast<size_t>(k)].n;
     sum = resultant.norm();
-    if (sum > 0)
+    if (sum > 0 && !spread)
       for (int k = 0; k < used; ++k) {
         const Hit& hit = hits[static_cast<size_t>(k)];
         const Vec3 n = hit.n;
@@ -870,6 +1001,7 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
       }
     s.contacts = used;
   }
+  clear_slots();
   if (!(depth > 0) || s.contact_vertex_count == 0) {
     s.contact_vertex_count = 0;
     s.contacts = 0;
@@ -1577,7 +1709,41 @@ namespace {
 // The volume term's forces on the padded layout (x at xv[8i …], sums at fr[8i …], x, y, z, 0), one
 // tetrahedron at a time with each corner one 256-bit vector: the same forces as add_volume_forces
 // (round-off level), cross products by lane rotations (u × v = (u ∘ v.yzx − u.yzx ∘ v).yzx).
-__attribute__((target("avx2,fma"))) void volume_pass_avx2(const SpringNetwork& net, const double* xv,
+__attribute__((target("avx2,fma"))) void volume_pass_avx2(const SpringNetwork& net, const double* scale,
+                                                           const double* xv, double* fr) noexcept {
+  const double kappa = net.volume_modulus;
+  const size_t T = net.tets.size();
+  const __m256d k6 = _mm256_set1_pd(kappa / 6);
+#define PALPATE_YZX(u) _mm256_permute4x64_pd(u, 0xC9)  // (y, z, x, w)
+  for (size_t t = 0; t < T; ++t) {
+    const auto& q = net.tets[t];
+    const size_t i0 = 8 * static_cast<size_t>(q[0]), i1 = 8 * static_cast<size_t>(q[1]),
+                 i2 = 8 * static_cast<size_t>(q[2]), i3 = 8 * static_cast<size_t>(q[3]);
+    const __m256d p0 = _mm256_load_pd(xv + i0);
+    const __m256d a = _mm256_sub_pd(_mm256_load_pd(xv + i1), p0);
+    const __m256d b = _mm256_sub_pd(_mm256_load_pd(xv + i2), p0);
+    const __m256d c = _mm256_sub_pd(_mm256_load_pd(xv + i3), p0);
+    const __m256d ar = PALPATE_YZX(a), br = PALPATE_YZX(b), cr = PALPATE_YZX(c);
+    const __m256d g1 = PALPATE_YZX(_mm256_fmsub_pd(b, cr, _mm256_mul_pd(br, c)));  // 6 ∇V at corner 1: b × c
+    const __m256d g2 = PALPATE_YZX(_mm256_fmsub_pd(c, ar, _mm256_mul_pd(cr, a)));  // c × a
+    const __m256d g3 = PALPATE_YZX(_mm256_fmsub_pd(a, br, _mm256_mul_pd(ar, b)));  // a × b
+    const __m256d d = _mm256_mul_pd(a, g1);  // lane 3 is 0
+    // 6V in every lane, summed as the scalar form does ((x + z) + (y + 0)), without leaving the register.
+    const __m256d d2 = _mm256_add_pd(d, _mm256_permute2f128_pd(d, d, 0x01));
+    const __m256d v6 = _mm256_add_pd(d2, _mm256_permute_pd(d2, 0x5));
+    // −p / 6 = −κ (V − V0) / (6 V0) = κ/6 − κ/(36 V0) · 6V, the factor precomputed per tetrahedron.
+    const __m256d sv = _mm256_fnmadd_pd(_mm256_broadcast_sd(scale + t), v6, k6);
+    _mm256_store_pd(fr + i1, _mm256_fmadd_pd(sv, g1, _mm256_load_pd(fr + i1)));
+    _mm256_store_pd(fr + i2, _mm256_fmadd_pd(sv, g2, _mm256_load_pd(fr + i2)));
+    _mm256_store_pd(fr + i3, _mm256_fmadd_pd(sv, g3, _mm256_load_pd(fr + i3)));
+    _mm256_store_pd(fr + i0, _mm256_fnmadd_pd(sv, _mm256_add_pd(_mm256_add_pd(g1, g2), g3), _mm256_load_pd(fr + i0)));
+  }
+#undef PALPATE_YZX
+}
+
+// The first form (a division per tetrahedron, a scalar horizontal sum), kept for the benchmark's
+// before/after comparison (SpringKernel::avx2_divide).
+__attribute__((target("avx2,fma"))) void volume_pass_avx2_divide(const SpringNetwork& net, const double* xv,
                                                            double* fr) noexcept {
   const double kappa = net.volume_modulus;
   const size_t T = net.tets.size();
@@ -1626,7 +1792,8 @@ double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const Ro
   if (directional(model)) {
     // The directional term has an AVX2 form only (the AVX-512 pass packs (g d, kh w) in one register).
     spring_pass_avx2<true>(net, KP, model.options.dt, xv, fr);
-  } else if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512()) {
+  } else if ((kernel == SpringKernel::best || kernel == SpringKernel::volume_divide || kernel == SpringKernel::avx512) &&
+             has_avx512()) {
     if (uniform) spring_pass_avx512<true>(net, KP, model.options.dt, xv, fr, model.uniform_stiffness, net.damping[0]);
     else spring_pass_avx512<false>(net, KP, model.options.dt, xv, fr);
   } else {
@@ -1634,7 +1801,9 @@ double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const Ro
   }
   if (model.volume_term) {
     if (kernel == SpringKernel::scalar) add_volume_forces(net, xv, 8, fr, 8);
-    else volume_pass_avx2(net, xv, fr);  // spring_pass_padded needs AVX2 + FMA anyway
+    else if (kernel == SpringKernel::volume_divide || model.volume_scale.size() != net.tets.size())
+      volume_pass_avx2_divide(net, xv, fr);
+    else volume_pass_avx2(net, model.volume_scale.data(), xv, fr);  // spring_pass_padded needs AVX2 + FMA anyway
   }
   return p;
 }

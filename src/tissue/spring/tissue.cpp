@@ -145,7 +145,7 @@ Result<SpringNetwork> spring_network_from_file(const MeshRef& ref, const SpringN
   if (!surface) return surface.error();
   translate(surface->V, ref.translate);
   if (o.topology == SpringTopology::tet_edges) {
-    auto tet = tetrahedralize(*surface);
+    auto tet = tetrahedralize(*surface, o.fill);
     if (!tet) return Error{where + ": filling the surface with tetrahedra failed: " + tet.error().message};
     return make_spring_network(*tet, o, where + " (tetrahedralized)");
   }
