@@ -43,7 +43,7 @@ TEST(SpringNetwork, DensityLumpsMassFromVolume) {
   net = make_spring_network(spring::make_block(4, 3, 5, 0.01), o, "block");
   EXPECT_DOUBLE_EQ(net->mass[17], 0.6 / 60);
   // A closed surface lumps from the volume it encloses (a ball: close to 4/3 π r³).
-  auto ball = make_spring_network(spring::make_ball_surface(500, 0.05), SpringNetworkOptions{SpringTopology::edges, 100, 0, 0, 0, 1000.0, 0.0, {}}, "ball");
+  auto ball = make_spring_network(spring::make_ball_surface(500, 0.05), SpringNetworkOptions{SpringTopology::edges, 100, 0, 0, 0, 1000.0, 0.0, {}, {}}, "ball");
   ASSERT_TRUE(ball.ok()) << ball.error().message;
   const double ball_mass = std::accumulate(ball->mass.begin(), ball->mass.end(), 0.0);
   EXPECT_NEAR(ball_mass, 1000.0 * 4.0 / 3.0 * M_PI * std::pow(0.05, 3), 0.03 * ball_mass);
