@@ -13,6 +13,35 @@
 namespace palpate {
 
 namespace {
+
+// y = L⁻¹ e_perm[v] for up to kBatch vertices at once (column b of the interleaved y, kBatch
+// doubles per permuted row), along the union of their elimination-tree paths (sorted into
+// `path`, marked in `mark`). after(j) runs once column j is final. The caller clears mark and y
+// over `path` when done.
+template <int kBatch, class After>
+void substitute_batch(const SpringPredictor& p, const std::vector<int>& parent, std::vector<int>& mark,
+                      std::vector<int>& path, std::vector<double>& y, const int* vertices, int count,
+                      After&& after) {
+  path.clear();
+  for (int b = 0; b < count; ++b) {
+    const int col = p.perm[static_cast<size_t>(vertices[b])];
+    y[static_cast<size_t>(col) * kBatch + static_cast<size_t>(b)] = 1.0;
+    for (int j = col; j >= 0 && !mark[static_cast<size_t>(j)]; j = parent[static_cast<size_t>(j)]) {
+      mark[static_cast<size_t>(j)] = 1;
+      path.push_back(j);
+    }
+  }
+  std::sort(path.begin(), path.end());
+  for (int j : path) {
+    const double* yj = &y[static_cast<size_t>(j) * kBatch];
+    for (int k = p.col_start[static_cast<size_t>(j)]; k < p.col_start[static_cast<size_t>(j) + 1]; ++k) {
+      double* yr = &y[static_cast<size_t>(p.row[static_cast<size_t>(k)]) * kBatch];
+      const double v = p.value[static_cast<size_t>(k)];
+      for (int b = 0; b < kBatch; ++b) yr[b] -= v * yj[b];
+    }
+    after(j);
+  }
+}
 constexpr int kBatch = 8;  // vertices forward-substituted together (the factor's columns read once)
 }
 
@@ -63,24 +92,7 @@ SpringCompliance::SpringCompliance(const SpringModel& model, int capacity) : mod
 void SpringCompliance::compute(std::span<const int> vertices) {
   const SpringPredictor& p = model_.predictor;
   const int B = static_cast<int>(vertices.size());
-  union_.clear();
-  for (int b = 0; b < B; ++b) {
-    const int col = p.perm[static_cast<size_t>(vertices[static_cast<size_t>(b)])];
-    y_[static_cast<size_t>(col) * kBatch + static_cast<size_t>(b)] = 1.0;
-    for (int j = col; j >= 0 && !mark_[static_cast<size_t>(j)]; j = parent_[static_cast<size_t>(j)]) {
-      mark_[static_cast<size_t>(j)] = 1;
-      union_.push_back(j);
-    }
-  }
-  std::sort(union_.begin(), union_.end());
-  for (int j : union_) {
-    const double* yj = &y_[static_cast<size_t>(j) * kBatch];
-    for (int k = p.col_start[static_cast<size_t>(j)]; k < p.col_start[static_cast<size_t>(j) + 1]; ++k) {
-      double* yr = &y_[static_cast<size_t>(p.row[static_cast<size_t>(k)]) * kBatch];
-      const double v = p.value[static_cast<size_t>(k)];
-      for (int b = 0; b < kBatch; ++b) yr[b] -= v * yj[b];
-    }
-  }
+  substitute_batch<kBatch>(p, parent_, mark_, union_, y_, vertices.data(), B, [](int) {});
   for (int b = 0; b < B; ++b) {
     const int vertex = vertices[static_cast<size_t>(b)];
     // The least recently used slot.
@@ -124,27 +136,12 @@ void SpringCompliance::diagonal(std::span<const int> vertices, std::span<double>
   // compute(), its squares summed instead of kept.
   for (size_t start = 0; start < count; start += kBatch) {
     const int B = static_cast<int>(std::min<size_t>(kBatch, count - start));
-    union_.clear();
-    for (int b = 0; b < B; ++b) {
-      const int col = p.perm[static_cast<size_t>(vertices[start + static_cast<size_t>(b)])];
-      y_[static_cast<size_t>(col) * kBatch + static_cast<size_t>(b)] = 1.0;
-      for (int j = col; j >= 0 && !mark_[static_cast<size_t>(j)]; j = parent_[static_cast<size_t>(j)]) {
-        mark_[static_cast<size_t>(j)] = 1;
-        union_.push_back(j);
-      }
-    }
-    std::sort(union_.begin(), union_.end());
     double sum[kBatch] = {};
-    for (int j : union_) {
+    substitute_batch<kBatch>(p, parent_, mark_, union_, y_, vertices.data() + start, B, [&](int j) {
       const double* yj = &y_[static_cast<size_t>(j) * kBatch];
-      for (int k = p.col_start[static_cast<size_t>(j)]; k < p.col_start[static_cast<size_t>(j) + 1]; ++k) {
-        double* yr = &y_[static_cast<size_t>(p.row[static_cast<size_t>(k)]) * kBatch];
-        const double v = p.value[static_cast<size_t>(k)];
-        for (int b = 0; b < kBatch; ++b) yr[b] -= v * yj[b];
-      }
       const double inv = p.inv_diag[static_cast<size_t>(j)];
       for (int b = 0; b < kBatch; ++b) sum[b] += yj[b] * yj[b] * inv;
-    }
+    });
     for (int b = 0; b < B; ++b) {
       const size_t i = static_cast<size_t>(vertices[start + static_cast<size_t>(b)]);
       d[start + static_cast<size_t>(b)] = model_.anchored[i] ? 0.0 : sum[b];
