@@ -43,11 +43,14 @@ class ContactJacobianSource {
 // W_ij L_j (m), the same for each coordinate. The haptic thread then solves, every tick, the
 // penalty contact of the tool's sphere with these points (src/haptics/contact.h, solve_patch).
 struct ContactPatch {
-  static constexpr int kMaxPoints = 64;
-  static constexpr int kMaxTriangles = 128;
+  static constexpr int kMaxPoints = 128;
+  static constexpr int kMaxTriangles = 256;
   int point_count = 0;
   int triangle_count = 0;
   std::array<Vec3, kMaxPoints> free_position{};                  // m
+  std::array<Vec3, kMaxPoints> free_velocity{};                  // m/s: the points' velocity at the step;
+                                                                   // the haptic solve moves the free
+                                                                   // positions on with it between steps
   std::array<std::array<int, 3>, kMaxTriangles> triangle{};        // indices into the points, outward (CCW)
   std::array<double, static_cast<size_t>(kMaxPoints) * kMaxPoints> compliance{};  // m/N, W row-major
                                                                                    // (point_count x point_count)

@@ -36,6 +36,16 @@ enum class SpringSolver {
 };
 
 // How the tool touches the organ.
+// How a step advances the state (docs/models/mass-spring.md, "Integrators"). Both solve one system
+// with the predictor's constant matrix A = M + h(γI + C_L) + h²K_L per step, h = SpringModelOptions::dt.
+enum class SpringIntegrator {
+  backward_euler,  // DS99: one backward-Euler step of h; first order
+  bdf2,            // the second-order backward differentiation formula at step H = 1.5 h: a backward-Euler
+                   // step of h = 2H/3 from the extrapolated state (4 x_n − x_{n−1})/3, (4 v_n − v_{n−1})/3.
+                   // L-stable like backward Euler (stiff modes are damped, not rung), but a mode of time
+                   // constant τ decays at e^(−H/τ) to second order instead of 1/(1 + H/τ)
+};
+
 enum class SpringContact {
   surface,   // the tool's sphere against the surface triangles, a penalty k_c·depth made implicit by a
              // per-tick correction and carried from tick to tick (docs/models/mass-spring.md, "Contact")
@@ -108,7 +118,9 @@ Result<SpringNetwork> make_spring_network(const SurfaceMesh& mesh, const SpringN
 Status validate(const SpringNetwork& network, const std::string& where);
 
 struct SpringModelOptions {
-  double dt = 0.001;                           // s, the step the predictor is built for
+  double dt = 0.001;                           // s, the step the predictor is built for (h); a step
+                                               // advances the state by step_length() (h, or 1.5 h for bdf2)
+  SpringIntegrator integrator = SpringIntegrator::backward_euler;
   SpringSolver solver = SpringSolver::desbrun;
   double point_damping = 0.5;                  // N·s/m, the paper's −γẋ on each mass
   bool gravity = true;
@@ -150,6 +162,11 @@ struct SpringModelOptions {
   // (not all-pairs) networks; ignored when exact_iterations > 0 (the two are alternatives).
   bool directional_correction = false;
 };
+
+// The time one step() advances (s): dt for backward Euler, 1.5 dt for BDF2.
+inline double step_length(const SpringModelOptions& o) noexcept {
+  return o.integrator == SpringIntegrator::bdf2 ? 1.5 * o.dt : o.dt;
+}
 
 // The precomputed predictor: A = M + h(γI + C_L) + h²K_L over the n vertices, where K_L and C_L are
 // the stiffness- and damping-weighted graph Laplacians (the constant, direction-free part of the
@@ -267,6 +284,10 @@ struct SpringState {
   RowMat3d x;       // (n x 3) positions, m
   RowMat3d v;       // (n x 3) velocities, m/s
   double time = 0;  // s
+  // bdf2: the state one step back (sized by make_state; has_prev false after make_state and reset:
+  // the first step then extrapolates from the present state alone).
+  RowMat3d x_prev, v_prev;
+  bool has_prev = false;
   // Scratch, (n x 3) each.
   RowMat3d force, rhs, dv, work;
   RowMat3d cg_r, cg_z, cg_p, cg_q, cg_d;  // exact_iterations > 0: the conjugate gradients' vectors

@@ -28,6 +28,7 @@ struct SpringMaterialDef {
   std::string predictor_policy = "load_or_compute";  // load_or_compute | require_file
   bool single_precision = false;   // per-tick predictor (and uniform all-pairs forces) in float
   int exact_iterations = 0;        // conjugate-gradient steps toward exact backward Euler per tick
+  std::string integrator = "backward_euler";  // backward_euler | bdf2
   bool directional_correction = false;  // the right-hand side's −hKv with each spring's exact stiffness
   double fill_max_edge = 0.0;      // m; a surface filled with tetrahedra (tet_edges): their largest size, 0 = as the surface's edges
   double fill_refine_size = 0.0;   // m; > 0: the fill is graded, this size within fill_refine_radius of fill_refine_center

@@ -121,8 +121,12 @@ TickFault PhysicsWorker::render(const ToolState& tool, std::int64_t now_ns, doub
   }
   if (s.seq == 0) return TickFault::none;
   if (!s.ok) return TickFault::step_failed;
+  // Ticks since this snapshot's step (the first tick that renders it is 0): the patch's points move
+  // on with their velocity for at most one physics period (a late step holds them there).
+  if (s.seq != rendered_seq_) { rendered_seq_ = s.seq; ticks_on_snapshot_ = 0; }
+  const double elapsed = std::min(physics_dt_, static_cast<double>(ticks_on_snapshot_++) * haptic_dt_);
   if (s.has_patch) {
-    const PatchContact c = solve_patch(s.patch, tool.tip, tool.radius, max_stiffness_, patch_scratch_);
+    const PatchContact c = solve_patch(s.patch, tool.tip, tool.radius, max_stiffness_, patch_scratch_, elapsed);
     if (c.valid) {
       force = c.force;
       ++patch_ticks_;

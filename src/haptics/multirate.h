@@ -83,6 +83,8 @@ class PhysicsWorker {
   MultiRateContact method_;
   ContactComplianceSource* compliance_ = nullptr;
   PatchScratch patch_scratch_;            // haptic thread
+  std::uint64_t rendered_seq_ = 0;        // haptic thread: the snapshot last rendered, and how many
+  std::uint64_t ticks_on_snapshot_ = 0;   // ticks it has been rendered for
   std::uint64_t patch_ticks_ = 0, patch_fallbacks_ = 0;
   int cpu_ = -1;
   TripleBuffer<ToolState> tool_in_;

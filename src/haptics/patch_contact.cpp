@@ -72,7 +72,7 @@ Geometry contact_geometry(const ContactPatch& patch, const Vec3& c, double r, Pa
 }  // namespace
 
 PatchContact solve_patch(const ContactPatch& patch, const Vec3& centre, double radius, double max_stiffness,
-                         PatchScratch& s, int max_iterations) noexcept {
+                         PatchScratch& s, double elapsed, int max_iterations) noexcept {
   PatchContact out;
   const int m = patch.point_count;
   if (m <= 0 || m > ContactPatch::kMaxPoints || patch.triangle_count > ContactPatch::kMaxTriangles ||
@@ -80,7 +80,13 @@ PatchContact solve_patch(const ContactPatch& patch, const Vec3& centre, double r
     return out;
   const double k = std::min(patch.stiffness, std::max(0.0, max_stiffness));
   const size_t M = static_cast<size_t>(m);
-  for (size_t i = 0; i < M; ++i) s.position[i] = patch.free_position[i];
+  // The free positions now: moved on with the points' velocity since the step.
+  const double tau = std::isfinite(elapsed) ? std::max(0.0, elapsed) : 0.0;
+  std::array<Vec3, ContactPatch::kMaxPoints>& free = s.free;
+  for (size_t i = 0; i < M; ++i) {
+    free[i] = patch.free_position[i] + tau * patch.free_velocity[i];
+    s.position[i] = free[i];
+  }
   double f = 0;
   Geometry geo;
   for (int it = 0; it < max_iterations; ++it) {
@@ -111,7 +117,7 @@ PatchContact solve_patch(const ContactPatch& patch, const Vec3& centre, double r
         const size_t j = static_cast<size_t>(s.loaded[static_cast<size_t>(b)]);
         d += patch.compliance[i * M + j] * s.g[j];
       }
-      s.position[i] = patch.free_position[i] - f * d;
+      s.position[i] = free[i] - f * d;
     }
     if (converged) break;
   }

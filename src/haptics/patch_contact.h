@@ -12,6 +12,7 @@ namespace palpate {
 // Scratch of one solve (the points' positions under load, their loads' directions): sized by the
 // patch's capacity, kept by the caller, so the solve never allocates.
 struct PatchScratch {
+  std::array<Vec3, ContactPatch::kMaxPoints> free{};      // the free positions at this tick
   std::array<Vec3, ContactPatch::kMaxPoints> position{};
   std::array<Vec3, ContactPatch::kMaxPoints> g{};
   std::array<int, ContactPatch::kMaxPoints> loaded{};  // the points with g ≠ 0, loaded_count of them
@@ -37,7 +38,11 @@ struct PatchContact {
 // make it cycle) until F changes by less than 1e-9·(1 + F) N or `max_iterations`. k = min(patch.stiffness,
 // max_stiffness): the rendered stiffness dF/dc = k / (1 + k w) never exceeds the device's.
 // noexcept, no allocation: O(iterations · (triangles + points · loaded points)).
+// `elapsed` (s, ≥ 0): the time since the step that published the patch; the free positions are
+// taken as x_free + elapsed · v_free (the organ goes on moving between its steps as it moved at the
+// step: holding them for the whole period renders a sawtooth at the physics rate, the force rising
+// with the tool against a frozen surface and falling back at each new step).
 PatchContact solve_patch(const ContactPatch& patch, const Vec3& centre, double radius, double max_stiffness,
-                         PatchScratch& scratch, int max_iterations = 24) noexcept;
+                         PatchScratch& scratch, double elapsed = 0, int max_iterations = 24) noexcept;
 
 }  // namespace palpate

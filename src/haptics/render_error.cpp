@@ -60,7 +60,7 @@ std::vector<Vec3> synchronous_forces(const SpringModel& model, const ProbeScript
 
 RenderError multirate_error(SpringModel model, MultiRateContact method, const ProbeScript& script,
                             const std::vector<Vec3>& truth, double max_stiffness, bool with_step_reference) {
-  const double physics_dt = model.options.dt;
+  const double physics_dt = step_length(model.options);  // one physics step's time (BDF2: 1.5 h)
   // The step reference: the same model stepped in lockstep with the worker's (same tools, same
   // ticks, so the same states), and from each of its states once more every tick on a copy.
   std::unique_ptr<SpringModel> ref;

@@ -282,6 +282,15 @@ std::vector<ModelCase> model_cases() {
                    "    material: {topology: tet_edges, youngs_modulus: 20000, poisson_ratio: 0.45, mass: 0.05, gravity: false}\n"
                    "    anchors: [0, 1, 4, 5]\n",
                Vec3::Zero(), Vec3(0, 1, 0), 0.015, 0.008, 1e-6});
+  // The same organ stepped by BDF2 (its extrapolated start state must not turn a teleport's jump
+  // into a kick) with the directional correction.
+  c.push_back({"spring_organ_bdf2", needle +
+                   "tissues:\n  - name: organ\n    model: mass_spring\n"
+                   "    mesh: {file: " PALPATE_TEST_DATA_DIR "/meshes/cube.off, scale: 0.02, translate: [-0.01, -0.02, -0.01]}\n"
+                   "    material: {topology: tet_edges, youngs_modulus: 20000, poisson_ratio: 0.45, mass: 0.05, gravity: false, "
+                   "integrator: bdf2, directional_correction: true}\n"
+                   "    anchors: [0, 1, 4, 5]\n",
+               Vec3::Zero(), Vec3(0, 1, 0), 0.015, 0.008, 1e-6});
   return c;
 }
 

@@ -273,7 +273,10 @@ bool SpringCompliance::contact_patch(const SpringState& state, const ToolState& 
   const size_t M = static_cast<size_t>(m);
   std::copy_n(patch_w_.begin(), M * M, patch.compliance.begin());
   // Free positions: the step's positions less W times the contact load it ended with.
-  for (size_t a = 0; a < M; ++a) patch.free_position[a] = state.x.row(patch_vertices_[a]).transpose();
+  for (size_t a = 0; a < M; ++a) {
+    patch.free_position[a] = state.x.row(patch_vertices_[a]).transpose();
+    patch.free_velocity[a] = state.v.row(patch_vertices_[a]).transpose();
+  }
   for (int k = 0; k < state.contact_vertex_count; ++k) {
     const int b = local_[static_cast<size_t>(state.contact_vertex[static_cast<size_t>(k)])];
     if (b < 0) continue;

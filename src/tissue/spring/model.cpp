@@ -291,6 +291,10 @@ SpringState make_state(const SpringModel& model) {
   s.rhs = RowMat3d::Zero(n, 3);
   s.dv = RowMat3d::Zero(n, 3);
   s.work = RowMat3d::Zero(n, 3);
+  if (model.options.integrator == SpringIntegrator::bdf2) {
+    s.x_prev = s.x;
+    s.v_prev = s.v;
+  }
   if (model.options.exact_iterations > 0 && model.predictor.kind != SpringSolver::exact) {
     s.cg_r = RowMat3d::Zero(n, 3);
     s.cg_z = RowMat3d::Zero(n, 3);
@@ -317,6 +321,7 @@ void reset(const SpringModel& model, SpringState& s) noexcept {
   s.x = model.network.rest;
   s.v.setZero();
   s.time = 0;
+  s.has_prev = false;
   s.grasped_count = 0;
   s.grasping = false;
   s.grasp_hold = 0;

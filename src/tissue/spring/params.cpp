@@ -40,6 +40,10 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
       {"exact_iterations", &D::exact_iterations, 0, 20, "",
        "after the predictor, this many conjugate-gradient steps on the exact backward-Euler system (the "
        "predictor as preconditioner): backward Euler's damping of transverse motion, one solve more each"},
+      {"integrator", &D::integrator, 0, 0, "",
+       "how a step advances: backward Euler (first order, the paper's), or BDF2 (second order, L-stable: the same "
+       "one-factor predictor built for 2/3 of the step, from an extrapolated state; closer to the 1 ms truth at a "
+       "long physics period)", "backward_euler|bdf2"},
       {"directional_correction", &D::directional_correction, 0, 1, "",
        "the predictor's right-hand side with each spring's exact (directional) stiffness: close to backward "
        "Euler's damping of transverse motion with no extra solve (tet and edge networks; not with "

@@ -500,7 +500,7 @@ Vec3 add_tool_forces(const SpringModel& model, SpringState& s, const ToolState& 
     s.grasp_hold = 1;
   } else if (!tool.grasp && s.grasped_count > 0) {
     s.grasping = false;
-    s.grasp_hold = o.grasp_release_time > 0 ? s.grasp_hold - o.dt / o.grasp_release_time : 0.0;
+    s.grasp_hold = o.grasp_release_time > 0 ? s.grasp_hold - step_length(o) / o.grasp_release_time : 0.0;
     if (!(s.grasp_hold > 0)) {
       s.grasp_hold = 0;
       s.grasped_count = 0;
@@ -1372,11 +1372,37 @@ void step_exact(const SpringModel& model, SpringState& s, const ToolState* tool)
 
 }  // namespace
 
+namespace {
+
+// BDF2 as a backward-Euler step from an extrapolated state: x_{n+1} = x̃ + h v_{n+1} and
+// v_{n+1} = ṽ + h a(x_{n+1}, v_{n+1}) with h = 2H/3, x̃ = (4 x_n − x_{n−1})/3, ṽ = (4 v_n − v_{n−1})/3,
+// which is the backward-Euler step the predictor already takes, started from (x̃, ṽ). Keeps (x_n, v_n)
+// as the next step's previous state. The first step after make_state or reset takes x_{n−1} = x_n.
+void bdf2_start(SpringState& s) noexcept {
+  if (!s.has_prev) {
+    s.x_prev = s.x;
+    s.v_prev = s.v;
+    s.has_prev = true;
+  }
+  const Eigen::Index n = s.x.rows();
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index c = 0; c < 3; ++c) {
+      const double x = s.x(i, c), v = s.v(i, c);
+      s.x(i, c) = (4.0 * x - s.x_prev(i, c)) / 3.0;
+      s.v(i, c) = (4.0 * v - s.v_prev(i, c)) / 3.0;
+      s.x_prev(i, c) = x;
+      s.v_prev(i, c) = v;
+    }
+}
+
+}  // namespace
+
 bool step(const SpringModel& model, SpringState& s, const ToolState* tool) noexcept {
   // A device glitch (non-finite pose) must not reach the tissue: the tool is ignored this step.
   if (tool && !(tool->tip.allFinite() && tool->velocity.allFinite() && tool->axis.allFinite() &&
                 std::isfinite(tool->radius)))
     tool = nullptr;
+  if (model.options.integrator == SpringIntegrator::bdf2) bdf2_start(s);
   if (model.options.solver == SpringSolver::exact) {
     try {
       step_exact(model, s, tool);
@@ -1395,7 +1421,7 @@ bool step(const SpringModel& model, SpringState& s, const ToolState* tool) noexc
       s.carried_on_tool.setZero();
     }
   }
-  s.time += model.options.dt;
+  s.time += step_length(model.options);
   if (finite_and_slow(model, s)) return true;
   const std::uint64_t resets = s.resets + 1;
   reset(model, s);

@@ -36,7 +36,7 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
 
   Vec3 step(const ToolState& tool, double dt) noexcept override {
     // The predictor is built for one step length: a longer tick runs several steps.
-    const long substeps = std::max(1L, std::lround(dt / model_.options.dt));
+    const long substeps = std::max(1L, std::lround(dt / step_length(model_.options)));
     Vec3 force = Vec3::Zero();
     failed_ = false;
     for (long k = 0; k < substeps; ++k) {
@@ -56,7 +56,7 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
   // The compliant patch for a multi-rate loop (issue 24): only when one step() is one step of the
   // predictor (its compliance is that step's), built on the physics thread at its first call.
   bool contact_patch(const ToolState& tool, double dt, ContactPatch& out) noexcept override {
-    if (failed_ || std::lround(dt / model_.options.dt) != 1) return false;
+    if (failed_ || std::lround(dt / step_length(model_.options)) != 1) return false;
     try {
       if (!compliance_) compliance_ = std::make_unique<SpringCompliance>(model_);
       // Reach: where the tool can go before the next step, twice over, and at least a millimetre.
@@ -193,7 +193,12 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
   }
   setup.network = std::move(*net);
   SpringModelOptions& o = setup.options;
-  o.dt = m.physics_rate > 0 ? 1.0 / m.physics_rate : scene.dt;  // one step per physics period
+  if (m.integrator == "bdf2") o.integrator = SpringIntegrator::bdf2;
+  else if (m.integrator != "backward_euler")
+    return Error{where + ": material.integrator '" + m.integrator + "' is not one of backward_euler|bdf2"};
+  // One step per physics period (or per tick): BDF2's predictor is built for 2/3 of it.
+  o.dt = (m.physics_rate > 0 ? 1.0 / m.physics_rate : scene.dt) *
+         (o.integrator == SpringIntegrator::bdf2 ? 2.0 / 3.0 : 1.0);
   o.solver = *solver;
   o.point_damping = m.point_damping;
   o.gravity = m.gravity;
