@@ -1736,7 +1736,7 @@ __attribute__((target("avx2"))) inline void transpose_columns(__m256d x, __m256d
 // horizontal sum), and the four corners' forces are transposed back and added one tetrahedron at
 // a time, corners 1, 2, 3, 0 as in the scalar form, each a load-add-store of its own, so a corner
 // shared within a group is summed right. On the Zen 3 this was tuned on, twelve vgatherdpd per
-// group instead of the loads and transposes took 1.5–2× as long; transposing the corners'
+// group instead of the loads and transposes took 1.5–2.5× as long; transposing the corners'
 // positions (four transposes) instead of the edges measured the same. The last (tets mod 4) go
 // one at a time.
 __attribute__((target("avx2,fma"))) void volume_pass_avx2(const SpringModel& model, const double* xv,
