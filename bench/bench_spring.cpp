@@ -121,12 +121,6 @@ const SpringModel& cached(const std::string& key) {
                                                                   : spring::SparseOrdering::fewest_nonzeros);
     m = std::make_unique<SpringModel>(*build_spring_model(std::move(net), o, std::move(predictor)));
     if (amd_columns) m->supernodes = SpringSupernodes{};  // step() then takes the column solve
-    // "/before": the volume pass and the surface contact as before issue 21's third round (a
-    // division per tetrahedron; every surface triangle box-tested, no outcode cull).
-    if (key.find("/before") != std::string::npos) {
-      m->volume_scale.clear();
-      m->surface_vertices.clear();
-    }
   }
   return *m;
 }
@@ -190,15 +184,6 @@ BENCHMARK(BM_SpringTick_Block10_VolumeExact1)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Block20_VolumeExact1)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_SpringTick_Organ10k_VolumeExact1)->Unit(benchmark::kMicrosecond);
 // directional_correction: the right-hand side with each spring's exact stiffness, in the spring pass.
-// Issue 21, third round: the volume pass and the contact before (VolumeBefore) and after (Volume)
-// its small-mesh optimisation, in one run.
-void BM_SpringTick_Block10_VolumeBefore(benchmark::State& s) { tick(s, "block10/volume/before"); }
-void BM_SpringTick_Block20_VolumeBefore(benchmark::State& s) { tick(s, "block20/volume/before"); }
-void BM_SpringTick_Organ10k_VolumeBefore(benchmark::State& s) { tick(s, "organ10k/volume/before"); }
-BENCHMARK(BM_SpringTick_Block10_VolumeBefore)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_SpringTick_Block20_VolumeBefore)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_SpringTick_Organ10k_VolumeBefore)->Unit(benchmark::kMicrosecond);
-
 void BM_SpringTick_Block10_VolumeDirectional(benchmark::State& s) { tick(s, "block10/volume/directional"); }
 void BM_SpringTick_Block20_VolumeDirectional(benchmark::State& s) { tick(s, "block20/volume/directional"); }
 void BM_SpringTick_Organ10k_VolumeDirectional(benchmark::State& s) { tick(s, "organ10k/volume/directional"); }

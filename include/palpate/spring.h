@@ -246,7 +246,13 @@ struct SpringModel {
   double uniform_stiffness = 0;         // N/m when every spring has this stiffness (else 0): K_L v in O(n)
   std::vector<double> predictor_stiffness;  // (s) N/m, each spring's weight in A (predictor_stiffness())
   bool volume_term = false;             // the network has tetrahedra with a volume modulus > 0
-  std::vector<double> volume_scale;     // (tets, with volume_term) κ / (36 V0), the volume pass's per-tet factor
+  // The volume pass's tetrahedra, four at a time (spring::layout_volume_pass): in groups of four that
+  // share no corner where a nearby tetrahedron allows it, taken in the mesh's order, then the last
+  // (tets mod 4) one at a time. With volume_term:
+  std::vector<double> volume_scale;     // (tets) κ / (36 V0) of each tetrahedron, in the pass's order, Pa/m³
+  std::vector<int> volume_corners;      // (4 tets) 8 × its corners' vertex indices (offsets into the padded
+                                        // layout): group g's corner c of lane l at [16g + 4c + l]; a
+                                        // tetrahedron t of the last ones at [4t + c]
   std::vector<int> surface_vertices;    // the vertices of network.triangles, each once, ascending
   std::vector<float> rest_length_single;  // all-pairs with single_precision and uniform springs: (s) m
   bool uniform_damping = false;         // every spring has the same damping (the all-pairs kernel reads

@@ -4,6 +4,8 @@
 
 #include <palpate/spring.h>
 
+#include <vector>
+
 namespace palpate::spring {
 
 // ∇V of a tetrahedron's volume V = (x1 − x0)·((x2 − x0) × (x3 − x0)) / 6 at each corner:
@@ -20,6 +22,14 @@ inline std::array<Vec3, 4> tet_volume_gradients(const Vec3& x0, const Vec3& x1, 
 // inverted (V < 0) configurations. x: vertex i's position at x[stride i …]; forces added at
 // f[fstride i …]. Returns the volume term's elastic energy Σ ½ κ (V − V0)² / V0 (J).
 double add_volume_forces(const SpringNetwork& net, const double* x, size_t stride, double* f, size_t fstride) noexcept;
+
+// Lays out the vectorised volume pass (SpringModel::volume_scale, volume_corners) for model.network's
+// tetrahedra: with `order` empty, greedily in the mesh's order, each tetrahedron joining the first of
+// up to 32 open groups with which it shares no corner (so that a group's four read-modify-writes
+// per corner do not wait on each other, and nearby tetrahedra stay close for the cache); otherwise
+// in `order` as given (a permutation of the tetrahedra; the tests use it to put shared corners in a
+// group). Clears both when the model has no volume term.
+void layout_volume_pass(SpringModel& model, const std::vector<int>& order = {});
 
 // Hooke-plus-damper spring forces added to f, and in the same pass over the springs the predictor
 // right-hand side's −h K_L v term added to r (DS99 §4.2):
@@ -57,9 +67,7 @@ bool has_avx512() noexcept;
 
 // Which kernel a call takes: best, the fastest this processor runs (the step's choice); the others
 // force one (the tests compare them). One this processor lacks falls back to the next narrower.
-// volume_divide: as best, but the volume pass in its first form (a division per tetrahedron), for
-// the benchmarks' before/after comparison.
-enum class SpringKernel { best, scalar, avx2, avx512, volume_divide };
+enum class SpringKernel { best, scalar, avx2, avx512 };
 
 inline void add_spring_forces_and_stiffness_term(const SpringModel& model, const RowMat3d& x, const RowMat3d& v,
                                                  RowMat3d& f, RowMat3d& r, double* scratch, bool vectorised) noexcept {

@@ -1732,72 +1732,104 @@ double add_volume_forces(const SpringNetwork& net, const double* x, size_t strid
 
 namespace {
 
-// The volume term's forces on the padded layout (x at xv[8i …], sums at fr[8i …], x, y, z, 0), one
-// tetrahedron at a time with each corner one 256-bit vector: the same forces as add_volume_forces
-// (round-off level), cross products by lane rotations (u × v = (u ∘ v.yzx − u.yzx ∘ v).yzx).
-__attribute__((target("avx2,fma"))) void volume_pass_avx2(const SpringNetwork& net, const double* scale,
-                                                           const double* xv, double* fr) noexcept {
-  const double kappa = net.volume_modulus;
-  const size_t T = net.tets.size();
-  const __m256d k6 = _mm256_set1_pd(kappa / 6);
-#define PALPATE_YZX(u) _mm256_permute4x64_pd(u, 0xC9)  // (y, z, x, w)
-  for (size_t t = 0; t < T; ++t) {
-    const auto& q = net.tets[t];
-    const size_t i0 = 8 * static_cast<size_t>(q[0]), i1 = 8 * static_cast<size_t>(q[1]),
-                 i2 = 8 * static_cast<size_t>(q[2]), i3 = 8 * static_cast<size_t>(q[3]);
-    const __m256d p0 = _mm256_load_pd(xv + i0);
-    const __m256d a = _mm256_sub_pd(_mm256_load_pd(xv + i1), p0);
-    const __m256d b = _mm256_sub_pd(_mm256_load_pd(xv + i2), p0);
-    const __m256d c = _mm256_sub_pd(_mm256_load_pd(xv + i3), p0);
-    const __m256d ar = PALPATE_YZX(a), br = PALPATE_YZX(b), cr = PALPATE_YZX(c);
-    const __m256d g1 = PALPATE_YZX(_mm256_fmsub_pd(b, cr, _mm256_mul_pd(br, c)));  // 6 ∇V at corner 1: b × c
-    const __m256d g2 = PALPATE_YZX(_mm256_fmsub_pd(c, ar, _mm256_mul_pd(cr, a)));  // c × a
-    const __m256d g3 = PALPATE_YZX(_mm256_fmsub_pd(a, br, _mm256_mul_pd(ar, b)));  // a × b
-    const __m256d d = _mm256_mul_pd(a, g1);  // lane 3 is 0
-    // 6V in every lane, summed as the scalar form does ((x + z) + (y + 0)), without leaving the register.
-    const __m256d d2 = _mm256_add_pd(d, _mm256_permute2f128_pd(d, d, 0x01));
-    const __m256d v6 = _mm256_add_pd(d2, _mm256_permute_pd(d2, 0x5));
-    // −p / 6 = −κ (V − V0) / (6 V0) = κ/6 − κ/(36 V0) · 6V, the factor precomputed per tetrahedron.
-    const __m256d sv = _mm256_fnmadd_pd(_mm256_broadcast_sd(scale + t), v6, k6);
-    _mm256_store_pd(fr + i1, _mm256_fmadd_pd(sv, g1, _mm256_load_pd(fr + i1)));
-    _mm256_store_pd(fr + i2, _mm256_fmadd_pd(sv, g2, _mm256_load_pd(fr + i2)));
-    _mm256_store_pd(fr + i3, _mm256_fmadd_pd(sv, g3, _mm256_load_pd(fr + i3)));
-    _mm256_store_pd(fr + i0, _mm256_fnmadd_pd(sv, _mm256_add_pd(_mm256_add_pd(g1, g2), g3), _mm256_load_pd(fr + i0)));
-  }
-#undef PALPATE_YZX
+// 4 x (x, y, z, 0) rows → x, y, z registers (lane l from row l): the edge vectors into the
+// structure-of-arrays form.
+__attribute__((target("avx2"))) inline void transpose_rows(const __m256d* r, __m256d& x, __m256d& y,
+                                                           __m256d& z) noexcept {
+  const __m256d t0 = _mm256_unpacklo_pd(r[0], r[1]), t1 = _mm256_unpackhi_pd(r[0], r[1]);  // x0 x1 z0 z1, y0 y1 0 0
+  const __m256d t2 = _mm256_unpacklo_pd(r[2], r[3]), t3 = _mm256_unpackhi_pd(r[2], r[3]);
+  x = _mm256_permute2f128_pd(t0, t2, 0x20);
+  y = _mm256_permute2f128_pd(t1, t3, 0x20);
+  z = _mm256_permute2f128_pd(t0, t2, 0x31);
 }
 
-// The first form (a division per tetrahedron, a scalar horizontal sum), kept for the benchmark's
-// before/after comparison (SpringKernel::avx2_divide).
-__attribute__((target("avx2,fma"))) void volume_pass_avx2_divide(const SpringNetwork& net, const double* xv,
+// x, y, z registers → 4 x (x, y, z, 0) rows, the inverse: the corner forces back into per-vertex form.
+__attribute__((target("avx2"))) inline void transpose_columns(__m256d x, __m256d y, __m256d z, __m256d* r) noexcept {
+  const __m256d zero = _mm256_setzero_pd();
+  const __m256d t0 = _mm256_unpacklo_pd(x, y), t1 = _mm256_unpackhi_pd(x, y);        // x0 y0 x2 y2, x1 y1 x3 y3
+  const __m256d t2 = _mm256_unpacklo_pd(z, zero), t3 = _mm256_unpackhi_pd(z, zero);  // z0 0 z2 0, z1 0 z3 0
+  r[0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+  r[1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+  r[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+  r[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+}
+
+// The volume term's forces on the padded layout (x at xv[8i …], sums at fr[8i …], x, y, z, 0): the
+// same forces as add_volume_forces (round-off level; the sums in another order of tetrahedra),
+// four tetrahedra at a time in the order SpringModel::volume_corners lays out. Each lane is one
+// tetrahedron: its edge vectors a, b, c are taken per vertex (three subtractions of 256-bit rows)
+// and transposed, the cross products and 6V are then plain lane-wise FMAs (no lane rotations, no
+// horizontal sum), and the four corners' forces are transposed back and added one tetrahedron at
+// a time, corners 1, 2, 3, 0 as in the scalar form, each a load-add-store of its own, so a corner
+// shared within a group is summed right. On the Zen 3 this was tuned on, twelve vgatherdpd per
+// group instead of the loads and transposes took 1.5–2.5× as long; transposing the corners'
+// positions (four transposes) instead of the edges measured the same. The last (tets mod 4) go
+// one at a time.
+__attribute__((target("avx2,fma"))) void volume_pass_avx2(const SpringModel& model, const double* xv,
                                                            double* fr) noexcept {
-  const double kappa = net.volume_modulus;
-  const size_t T = net.tets.size();
+  const size_t T = model.network.tets.size(), G = T / 4;
+  const double kappa = model.network.volume_modulus;
+  const int* corners = model.volume_corners.data();
+  const double* scale = model.volume_scale.data();
   const __m256d k6 = _mm256_set1_pd(kappa / 6);
-#define PALPATE_YZX(u) _mm256_permute4x64_pd(u, 0xC9)  // (y, z, x, w)
-  for (size_t t = 0; t < T; ++t) {
-    const auto& q = net.tets[t];
-    const size_t i0 = 8 * static_cast<size_t>(q[0]), i1 = 8 * static_cast<size_t>(q[1]),
-                 i2 = 8 * static_cast<size_t>(q[2]), i3 = 8 * static_cast<size_t>(q[3]);
-    const __m256d p0 = _mm256_load_pd(xv + i0);
-    const __m256d a = _mm256_sub_pd(_mm256_load_pd(xv + i1), p0);
-    const __m256d b = _mm256_sub_pd(_mm256_load_pd(xv + i2), p0);
-    const __m256d c = _mm256_sub_pd(_mm256_load_pd(xv + i3), p0);
-    const __m256d ar = PALPATE_YZX(a), br = PALPATE_YZX(b), cr = PALPATE_YZX(c);
-    const __m256d g1 = PALPATE_YZX(_mm256_fmsub_pd(b, cr, _mm256_mul_pd(br, c)));  // 6 ∇V at corner 1: b × c
-    const __m256d g2 = PALPATE_YZX(_mm256_fmsub_pd(c, ar, _mm256_mul_pd(cr, a)));  // c × a
-    const __m256d g3 = PALPATE_YZX(_mm256_fmsub_pd(a, br, _mm256_mul_pd(ar, b)));  // a × b
-    const __m256d d = _mm256_mul_pd(a, g1);  // lane 3 is 0
-    const __m128d h2 = _mm_add_pd(_mm256_castpd256_pd128(d), _mm256_extractf128_pd(d, 1));
-    const double v6 = _mm_cvtsd_f64(_mm_add_sd(h2, _mm_unpackhi_pd(h2, h2)));
-    // −p / 6 = −κ (V − V0) / (6 V0) = κ/6 − κ · 6V / (36 V0)
-    const __m256d sv = _mm256_fnmadd_pd(_mm256_set1_pd(kappa / (36 * net.rest_volume[t])), _mm256_set1_pd(v6), k6);
-    _mm256_store_pd(fr + i1, _mm256_fmadd_pd(sv, g1, _mm256_load_pd(fr + i1)));
-    _mm256_store_pd(fr + i2, _mm256_fmadd_pd(sv, g2, _mm256_load_pd(fr + i2)));
-    _mm256_store_pd(fr + i3, _mm256_fmadd_pd(sv, g3, _mm256_load_pd(fr + i3)));
-    _mm256_store_pd(fr + i0, _mm256_fnmadd_pd(sv, _mm256_add_pd(_mm256_add_pd(g1, g2), g3), _mm256_load_pd(fr + i0)));
+  for (size_t g = 0; g < G; ++g) {
+    const int* o = corners + 16 * g;  // corner c of lane l at o[4c + l]
+    __m256d e[3][4];                  // edge k (a, b, c) of lane l as (x, y, z, 0)
+    for (int l = 0; l < 4; ++l) {
+      const __m256d p0 = _mm256_load_pd(xv + o[l]);
+      for (int k = 0; k < 3; ++k) e[k][l] = _mm256_sub_pd(_mm256_load_pd(xv + o[4 * (k + 1) + l]), p0);
+    }
+    __m256d ax, ay, az, bx, by, bz, cx, cy, cz;
+    transpose_rows(e[0], ax, ay, az);
+    transpose_rows(e[1], bx, by, bz);
+    transpose_rows(e[2], cx, cy, cz);
+    // 6 ∇V at corners 1, 2, 3: b × c, c × a, a × b; lane-wise.
+    __m256d gx[4], gy[4], gz[4];
+    gx[1] = _mm256_fmsub_pd(by, cz, _mm256_mul_pd(bz, cy));
+    gy[1] = _mm256_fmsub_pd(bz, cx, _mm256_mul_pd(bx, cz));
+    gz[1] = _mm256_fmsub_pd(bx, cy, _mm256_mul_pd(by, cx));
+    gx[2] = _mm256_fmsub_pd(cy, az, _mm256_mul_pd(cz, ay));
+    gy[2] = _mm256_fmsub_pd(cz, ax, _mm256_mul_pd(cx, az));
+    gz[2] = _mm256_fmsub_pd(cx, ay, _mm256_mul_pd(cy, ax));
+    gx[3] = _mm256_fmsub_pd(ay, bz, _mm256_mul_pd(az, by));
+    gy[3] = _mm256_fmsub_pd(az, bx, _mm256_mul_pd(ax, bz));
+    gz[3] = _mm256_fmsub_pd(ax, by, _mm256_mul_pd(ay, bx));
+    const __m256d v6 = _mm256_fmadd_pd(az, gz[1], _mm256_fmadd_pd(ay, gy[1], _mm256_mul_pd(ax, gx[1])));  // 6 V
+    // −p / 6 = −κ (V − V0) / (6 V0) = κ/6 − κ/(36 V0) · 6V, the factor precomputed per tetrahedron.
+    const __m256d sv = _mm256_fnmadd_pd(_mm256_loadu_pd(scale + 4 * g), v6, k6);
+    // Corner 0's force is −(the others'): kept positive here and subtracted below.
+    gx[0] = _mm256_mul_pd(sv, _mm256_add_pd(_mm256_add_pd(gx[1], gx[2]), gx[3]));
+    gy[0] = _mm256_mul_pd(sv, _mm256_add_pd(_mm256_add_pd(gy[1], gy[2]), gy[3]));
+    gz[0] = _mm256_mul_pd(sv, _mm256_add_pd(_mm256_add_pd(gz[1], gz[2]), gz[3]));
+    __m256d f[4][4];  // corner c's force on lane l's tetrahedron as (x, y, z, 0)
+    transpose_columns(gx[0], gy[0], gz[0], f[0]);
+    for (int c = 1; c < 4; ++c)
+      transpose_columns(_mm256_mul_pd(sv, gx[c]), _mm256_mul_pd(sv, gy[c]), _mm256_mul_pd(sv, gz[c]), f[c]);
+    for (int l = 0; l < 4; ++l) {
+      for (int c = 1; c < 4; ++c) {
+        double* q = fr + o[4 * c + l];
+        _mm256_store_pd(q, _mm256_add_pd(_mm256_load_pd(q), f[c][l]));
+      }
+      double* q = fr + o[l];
+      _mm256_store_pd(q, _mm256_sub_pd(_mm256_load_pd(q), f[0][l]));
+    }
   }
-#undef PALPATE_YZX
+  for (size_t t = 4 * G; t < T; ++t) {  // the last ones, scalar
+    const int* o = corners + 4 * t;
+    const double *p0 = xv + o[0], *p1 = xv + o[1], *p2 = xv + o[2], *p3 = xv + o[3];
+    const double ax = p1[0] - p0[0], ay = p1[1] - p0[1], az = p1[2] - p0[2];
+    const double bx = p2[0] - p0[0], by = p2[1] - p0[1], bz = p2[2] - p0[2];
+    const double cx = p3[0] - p0[0], cy = p3[1] - p0[1], cz = p3[2] - p0[2];
+    const double g1x = by * cz - bz * cy, g1y = bz * cx - bx * cz, g1z = bx * cy - by * cx;
+    const double g2x = cy * az - cz * ay, g2y = cz * ax - cx * az, g2z = cx * ay - cy * ax;
+    const double g3x = ay * bz - az * by, g3y = az * bx - ax * bz, g3z = ax * by - ay * bx;
+    const double s = kappa / 6 - scale[t] * (ax * g1x + ay * g1y + az * g1z);
+    double *f0 = fr + o[0], *f1 = fr + o[1], *f2 = fr + o[2], *f3 = fr + o[3];
+    f1[0] += s * g1x; f1[1] += s * g1y; f1[2] += s * g1z;
+    f2[0] += s * g2x; f2[1] += s * g2y; f2[2] += s * g2z;
+    f3[0] += s * g3x; f3[1] += s * g3y; f3[2] += s * g3z;
+    f0[0] -= s * (g1x + g2x + g3x); f0[1] -= s * (g1y + g2y + g3y); f0[2] -= s * (g1z + g2z + g3z);
+  }
 }
 
 }  // namespace
@@ -1818,18 +1850,19 @@ double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const Ro
   if (directional(model)) {
     // The directional term has an AVX2 form only (the AVX-512 pass packs (g d, kh w) in one register).
     spring_pass_avx2<true>(net, KP, model.options.dt, xv, fr);
-  } else if ((kernel == SpringKernel::best || kernel == SpringKernel::volume_divide || kernel == SpringKernel::avx512) &&
-             has_avx512()) {
+  } else if ((kernel == SpringKernel::best || kernel == SpringKernel::avx512) && has_avx512()) {
     if (uniform) spring_pass_avx512<true>(net, KP, model.options.dt, xv, fr, model.uniform_stiffness, net.damping[0]);
     else spring_pass_avx512<false>(net, KP, model.options.dt, xv, fr);
   } else {
     spring_pass_avx2(net, KP, model.options.dt, xv, fr);
   }
   if (model.volume_term) {
-    if (kernel == SpringKernel::scalar) add_volume_forces(net, xv, 8, fr, 8);
-    else if (kernel == SpringKernel::volume_divide || model.volume_scale.size() != net.tets.size())
-      volume_pass_avx2_divide(net, xv, fr);
-    else volume_pass_avx2(net, model.volume_scale.data(), xv, fr);  // spring_pass_padded needs AVX2 + FMA anyway
+    // The scalar form also for a model whose layout does not match its tetrahedra (one assembled
+    // by hand rather than by build_spring_model). spring_pass_padded needs AVX2 + FMA anyway.
+    if (kernel == SpringKernel::scalar || model.volume_scale.size() != net.tets.size() ||
+        model.volume_corners.size() != 4 * net.tets.size())
+      add_volume_forces(net, xv, 8, fr, 8);
+    else volume_pass_avx2(model, xv, fr);
   }
   return p;
 }
