@@ -71,6 +71,7 @@ struct Reader {
   bool get_array(std::vector<T>& out, size_t count) {
     if (count > left / sizeof(T)) return false;
     out.resize(count);
+    if (count == 0) return true;  // memcpy from or to a null pointer is undefined even for 0 bytes (UBSan)
     std::memcpy(out.data(), p, count * sizeof(T));
     p += count * sizeof(T);
     left -= count * sizeof(T);

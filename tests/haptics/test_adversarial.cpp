@@ -447,7 +447,17 @@ TEST_P(AdversarialModel, MillionTicksOfRandomProbing) {
   rig->loop->run_headless(10000);  // warm: every lazily touched page touched
   const std::uint64_t ticks0 = rig->loop->stats().ticks, steps0 = rig->checked[0]->steps;
   const double rss0 = resident_bytes();
+  // 10⁶ ticks; 10⁵ under a sanitizer (AddressSanitizer makes a tick ~50 times slower: the five models'
+  // 10⁶ ticks took 280 s each, most of the CI's budget; a tenth still crosses every fault kind many times).
+#ifndef __has_feature
+#define __has_feature(x) 0  // gcc: __SANITIZE_ADDRESS__ / __SANITIZE_THREAD__ say it
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__) || __has_feature(address_sanitizer) || \
+    __has_feature(thread_sanitizer) || __has_feature(undefined_behavior_sanitizer)
+  constexpr std::uint64_t kTicks = 100000;
+#else
   constexpr std::uint64_t kTicks = 1000000;
+#endif
   std::uint64_t allocations = 0;
   std::vector<std::vector<Vec3>> pts;
   for (std::uint64_t done = 0; done < kTicks; done += 50000) {
@@ -465,13 +475,13 @@ TEST_P(AdversarialModel, MillionTicksOfRandomProbing) {
   EXPECT_LT(rss1 - rss0, 1e6) << "resident memory grew from " << rss0 << " to " << rss1 << " bytes";
   EXPECT_EQ(st.ticks, ticks0 + kTicks);
   // The random hand's NaN poses, degenerate orientations and failed reads were each caught.
-  EXPECT_GT(st.safety.device_failed, 100u);
+  EXPECT_GT(st.safety.device_failed, kTicks / 10000);  // 1 in 5,000 ticks each of three kinds
   EXPECT_GT(rig->hand->largest, 0.5) << "the probing never pressed";
   for (const Checked* c : rig->checked) EXPECT_EQ(c->steps, steps0 + kTicks);
   expect_back_at_rest(*rig, mc, std::string(mc.name) + ", random");
-  std::printf("[ adversarial ] %s: 1e6 ticks, largest model force %.3g N, sent %.3g N, device_failed %llu, "
+  std::printf("[ adversarial ] %s: %.0e ticks, largest model force %.3g N, sent %.3g N, device_failed %llu, "
               "step_failed %llu, clamped %llu, rate_limited %llu, RSS %+.0f kB\n",
-              mc.name, rig->checked[0]->largest_force, rig->hand->largest,
+              mc.name, double(kTicks), rig->checked[0]->largest_force, rig->hand->largest,
               (unsigned long long)st.safety.device_failed, (unsigned long long)st.safety.step_failed,
               (unsigned long long)st.safety.clamped, (unsigned long long)st.safety.rate_limited, (rss1 - rss0) / 1e3);
 }
