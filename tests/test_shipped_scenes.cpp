@@ -4,6 +4,8 @@
 #include <palpate/run.h>
 #include <palpate/scene.h>
 
+#include "sanitized.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -17,6 +19,9 @@ TEST(ShippedScenes, EachRunsAndItsToolTouchesItsTissue) {
   for (const auto& entry : fs::directory_iterator(PALPATE_SOURCE_DIR "/data/scenes")) {
     if (entry.path().extension() != ".yaml") continue;
     const std::string name = entry.path().filename().string();
+    // Under a sanitizer the 54k-vertex organ's scene alone is past ctest's 300 s (its mesh, its
+    // factorisation and 1,500 ticks): run in full by the release suite only.
+    if (kSanitized && name == "large-organ.yaml") continue;
     auto scene = load_scene(entry.path());
     ASSERT_TRUE(scene.ok()) << scene.error().message;
     RunOptions o;
@@ -34,9 +39,9 @@ TEST(ShippedScenes, EachRunsAndItsToolTouchesItsTissue) {
     // a probe's steady press and let-go (liver-springs), a grasped organ let go (liver-probe: its
     // pull fades over the material's grasp_release_time, where it used to drop 1.26 N in a tick).
     // large-organ.yaml too, since its physics step's contact uses the exact diagonal of A⁻¹ (its
-    // lift-off used to drop 0.40 N in a tick); its slide still steps by up to 0.15 N at each 50 Hz
-    // physics step (docs/haptics.md).
+    // lift-off used to drop 0.40 N in a tick); its slide's steps at each 50 Hz physics step are now
+    // ≤ 0.04 N (they were up to 0.154 N before the patch's points moved between steps; docs/haptics.md).
     EXPECT_EQ(r->safety.rate_limited, 0u) << name;
   }
-  EXPECT_GE(ran, 8);
+  EXPECT_GE(ran, kSanitized ? 7 : 8);
 }

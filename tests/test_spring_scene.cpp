@@ -7,6 +7,8 @@
 #include <palpate/spring.h>
 #include <palpate/tissue.h>
 
+#include "sanitized.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -98,6 +100,7 @@ TEST(SpringScene, EveryShippedMassSpringSceneTouchesItsOrgan) {
   for (const auto& entry : fs::directory_iterator(PALPATE_SOURCE_DIR "/data/scenes")) {
     if (entry.path().extension() != ".yaml") continue;
     const std::string name = entry.path().filename().string();
+    if (kSanitized && name == "large-organ.yaml") continue;  // past 300 s under a sanitizer (sanitized.h)
     auto scene = palpate::load_scene(entry.path());
     ASSERT_TRUE(scene.ok()) << scene.error().message;
     std::vector<int> organs;

@@ -6,6 +6,7 @@
 #include <palpate/spring.h>
 
 #include "spring_fixtures.h"
+#include "sanitized.h"
 #include "tissue/spring/shapes.h"
 
 #include <gtest/gtest.h>
@@ -165,6 +166,9 @@ double log_log_slope(const std::vector<double>& x, const std::vector<double>& y)
 // 3.1 mm: 3 to 6 fine spacings). The least-squares exponent of the force against the tissue's own
 // depth (the tool's travel minus the contact's F/k_c) is Hertz's 1.5 within 5 % on both meshes.
 TEST(SpringStiffness, SmallDepthIndentationFollowsHertzsExponentOnGradedMeshes) {
+  // Numerics on 21,780- and 7,754-vertex meshes settled 2,400 times: past 300 s under a sanitizer;
+  // the Gmsh fill it uses is run under the sanitizers by MeshTetrahedralize.*.
+  if (kSanitized) GTEST_SKIP() << "run by the release suite (sanitized.h)";
   const double R = 0.008, nu = 0.45, E = 5000;
   const double fine = 0.0005, coarse = 0.004, ratio = 1.3;        // m; cells grow by 30 % away from the fine region
   const double half = 0.02, height = 0.04;                        // the block: 4 × 4 cm, 4 cm deep

@@ -10,6 +10,8 @@
 #include <palpate/tissue.h>
 #include <palpate/ultrasound.h>
 
+#include "sanitized.h"
+
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -449,15 +451,7 @@ TEST_P(AdversarialModel, MillionTicksOfRandomProbing) {
   const double rss0 = resident_bytes();
   // 10⁶ ticks; 10⁵ under a sanitizer (AddressSanitizer makes a tick ~50 times slower: the five models'
   // 10⁶ ticks took 280 s each, most of the CI's budget; a tenth still crosses every fault kind many times).
-#ifndef __has_feature
-#define __has_feature(x) 0  // gcc: __SANITIZE_ADDRESS__ / __SANITIZE_THREAD__ say it
-#endif
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__) || __has_feature(address_sanitizer) || \
-    __has_feature(thread_sanitizer) || __has_feature(undefined_behavior_sanitizer)
-  constexpr std::uint64_t kTicks = 100000;
-#else
-  constexpr std::uint64_t kTicks = 1000000;
-#endif
+  constexpr std::uint64_t kTicks = kSanitized ? 100000 : 1000000;
   std::uint64_t allocations = 0;
   std::vector<std::vector<Vec3>> pts;
   for (std::uint64_t done = 0; done < kTicks; done += 50000) {
