@@ -1693,6 +1693,32 @@ __attribute__((target("avx2"))) void pack_padded(size_t n, const double* xd, con
   }
 }
 
+// One tetrahedron's volume gradients from its corners p0..p3 (x, y, z each): 6 ∇V at corners 1, 2
+// and 3 — b × c, c × a, a × b, with a, b, c its edges from corner 0 (corner 0's is minus their sum)
+// — and 6V. Shared by the scalar volume pass and the four-wide pass's tail.
+struct TetGradients {
+  double g[3][3];
+  double v6;
+};
+inline TetGradients tet_gradients(const double* p0, const double* p1, const double* p2, const double* p3) noexcept {
+  const double ax = p1[0] - p0[0], ay = p1[1] - p0[1], az = p1[2] - p0[2];
+  const double bx = p2[0] - p0[0], by = p2[1] - p0[1], bz = p2[2] - p0[2];
+  const double cx = p3[0] - p0[0], cy = p3[1] - p0[1], cz = p3[2] - p0[2];
+  TetGradients t{{{by * cz - bz * cy, bz * cx - bx * cz, bx * cy - by * cx},
+                  {cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax},
+                  {ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx}},
+                 0.0};
+  t.v6 = ax * t.g[0][0] + ay * t.g[0][1] + az * t.g[0][2];
+  return t;
+}
+// s times the gradients onto the corners' forces (corner 0 gets minus their sum).
+inline void add_tet_forces(const TetGradients& t, double s, double* f0, double* f1, double* f2, double* f3) noexcept {
+  double* fk[3] = {f1, f2, f3};
+  for (int k = 0; k < 3; ++k)
+    for (int c = 0; c < 3; ++c) fk[k][c] += s * t.g[k][c];
+  for (int c = 0; c < 3; ++c) f0[c] -= s * (t.g[0][c] + t.g[1][c] + t.g[2][c]);
+}
+
 }  // namespace
 
 double add_volume_forces(const SpringNetwork& net, const double* x, size_t stride, double* f,
@@ -1702,30 +1728,14 @@ double add_volume_forces(const SpringNetwork& net, const double* x, size_t strid
   const size_t T = net.tets.size();
   for (size_t t = 0; t < T; ++t) {
     const auto& q = net.tets[t];
-    const double* p0 = x + stride * static_cast<size_t>(q[0]);
-    const double* p1 = x + stride * static_cast<size_t>(q[1]);
-    const double* p2 = x + stride * static_cast<size_t>(q[2]);
-    const double* p3 = x + stride * static_cast<size_t>(q[3]);
-    const double ax = p1[0] - p0[0], ay = p1[1] - p0[1], az = p1[2] - p0[2];
-    const double bx = p2[0] - p0[0], by = p2[1] - p0[1], bz = p2[2] - p0[2];
-    const double cx = p3[0] - p0[0], cy = p3[1] - p0[1], cz = p3[2] - p0[2];
-    // 6 ∇V at corners 1, 2, 3: b × c, c × a, a × b.
-    const double g1x = by * cz - bz * cy, g1y = bz * cx - bx * cz, g1z = bx * cy - by * cx;
-    const double g2x = cy * az - cz * ay, g2y = cz * ax - cx * az, g2z = cx * ay - cy * ax;
-    const double g3x = ay * bz - az * by, g3y = az * bx - ax * bz, g3z = ax * by - ay * bx;
-    const double v6 = ax * g1x + ay * g1y + az * g1z;  // 6 V
+    const TetGradients g = tet_gradients(x + stride * static_cast<size_t>(q[0]), x + stride * static_cast<size_t>(q[1]),
+                                         x + stride * static_cast<size_t>(q[2]), x + stride * static_cast<size_t>(q[3]));
     const double v0 = net.rest_volume[t];
-    const double dv = v6 / 6 - v0;
+    const double dv = g.v6 / 6 - v0;
     energy += 0.5 * kappa * dv * dv / v0;
     const double s = -kappa * dv / (6 * v0);  // −p / 6, the 1/6 of ∇V folded in
-    double* f0 = f + fstride * static_cast<size_t>(q[0]);
-    double* f1 = f + fstride * static_cast<size_t>(q[1]);
-    double* f2 = f + fstride * static_cast<size_t>(q[2]);
-    double* f3 = f + fstride * static_cast<size_t>(q[3]);
-    f1[0] += s * g1x; f1[1] += s * g1y; f1[2] += s * g1z;
-    f2[0] += s * g2x; f2[1] += s * g2y; f2[2] += s * g2z;
-    f3[0] += s * g3x; f3[1] += s * g3y; f3[2] += s * g3z;
-    f0[0] -= s * (g1x + g2x + g3x); f0[1] -= s * (g1y + g2y + g3y); f0[2] -= s * (g1z + g2z + g3z);
+    add_tet_forces(g, s, f + fstride * static_cast<size_t>(q[0]), f + fstride * static_cast<size_t>(q[1]),
+                   f + fstride * static_cast<size_t>(q[2]), f + fstride * static_cast<size_t>(q[3]));
   }
   return energy;
 }
@@ -1816,19 +1826,8 @@ __attribute__((target("avx2,fma"))) void volume_pass_avx2(const SpringModel& mod
   }
   for (size_t t = 4 * G; t < T; ++t) {  // the last ones, scalar
     const int* o = corners + 4 * t;
-    const double *p0 = xv + o[0], *p1 = xv + o[1], *p2 = xv + o[2], *p3 = xv + o[3];
-    const double ax = p1[0] - p0[0], ay = p1[1] - p0[1], az = p1[2] - p0[2];
-    const double bx = p2[0] - p0[0], by = p2[1] - p0[1], bz = p2[2] - p0[2];
-    const double cx = p3[0] - p0[0], cy = p3[1] - p0[1], cz = p3[2] - p0[2];
-    const double g1x = by * cz - bz * cy, g1y = bz * cx - bx * cz, g1z = bx * cy - by * cx;
-    const double g2x = cy * az - cz * ay, g2y = cz * ax - cx * az, g2z = cx * ay - cy * ax;
-    const double g3x = ay * bz - az * by, g3y = az * bx - ax * bz, g3z = ax * by - ay * bx;
-    const double s = kappa / 6 - scale[t] * (ax * g1x + ay * g1y + az * g1z);
-    double *f0 = fr + o[0], *f1 = fr + o[1], *f2 = fr + o[2], *f3 = fr + o[3];
-    f1[0] += s * g1x; f1[1] += s * g1y; f1[2] += s * g1z;
-    f2[0] += s * g2x; f2[1] += s * g2y; f2[2] += s * g2z;
-    f3[0] += s * g3x; f3[1] += s * g3y; f3[2] += s * g3z;
-    f0[0] -= s * (g1x + g2x + g3x); f0[1] -= s * (g1y + g2y + g3y); f0[2] -= s * (g1z + g2z + g3z);
+    const TetGradients g = tet_gradients(xv + o[0], xv + o[1], xv + o[2], xv + o[3]);
+    add_tet_forces(g, kappa / 6 - scale[t] * g.v6, fr + o[0], fr + o[1], fr + o[2], fr + o[3]);
   }
 }
 
