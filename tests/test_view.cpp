@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "png_read.h"
+#include "sanitized.h"
 #include "shell_run.h"
 
 #include <array>
@@ -27,14 +28,7 @@ bool have_xvfb() { return std::system("command -v xvfb-run >/dev/null 2>&1") == 
 // Under AddressSanitizer the viewer runs without LeakSanitizer: Mesa's GLX driver leaves a few
 // blocks behind that are reported from a module already unloaded at exit, so no suppression
 // (tests/lsan.supp) can name them. Every other leak check stays on.
-#if !defined(__has_feature)
-#define __has_feature(x) 0  // gcc: __SANITIZE_ADDRESS__ says it; clang: __has_feature
-#endif
-#if defined(__SANITIZE_ADDRESS__) || __has_feature(address_sanitizer)
-constexpr const char* kViewLeakCheck = "ASAN_OPTIONS=detect_leaks=0 ";
-#else
-constexpr const char* kViewLeakCheck = "";
-#endif
+constexpr const char* kViewLeakCheck = kAddressSanitized ? "ASAN_OPTIONS=detect_leaks=0 " : "";
 
 // The viewer under a private virtual X server with software GL (no GPU needed). The X authority
 // file is ours (-f): without it xvfb-run makes and removes a temporary directory of its own, and

@@ -1,4 +1,5 @@
 // test_cli.cpp — the palpate command as a user meets it: --version, --help, exit codes, errors.
+#include "sanitized.h"
 #include "shell_run.h"
 
 #include <gtest/gtest.h>
@@ -164,13 +165,8 @@ TEST(Cli, InterruptedRunWritesCompleteOutputs) {
 // Out of memory is a message and an exit status, never an abort: a patch that passes the load-time
 // estimate on this machine but not the address-space limit set here (ulimit -v) ends in main()'s
 // std::bad_alloc handler (exit 3); on a machine too small for it, the load refuses it (exit 2).
-#if !defined(__has_feature)
-#define __has_feature(x) 0
-#endif
 TEST(Cli, OutOfMemoryIsAClearErrorNotAnAbort) {
-#if defined(__SANITIZE_ADDRESS__) || __has_feature(address_sanitizer)
-  GTEST_SKIP() << "AddressSanitizer maps terabytes of shadow memory: ulimit -v stops it at start";
-#endif
+  if (kAddressSanitized) GTEST_SKIP() << "AddressSanitizer maps terabytes of shadow memory: ulimit -v stops it at start";
   const auto p = std::filesystem::temp_directory_path() / "palpate_cli_oom.yaml";
   std::ofstream(p) << "name: oom\nduration: 0.01\ndt: 0.001\noutput: " << (std::filesystem::temp_directory_path() / "palpate_cli_oom").string()
                    << "\ntissues:\n  - name: big\n    patch: {width: 0.3, height: 0.3, spacing: 0.00005}\n";
