@@ -3,6 +3,7 @@
 #include "spring_fixtures.h"
 
 #include "io/predictor_file.h"
+#include "tissue/spring/solve.h"
 
 #include <cmath>
 #include <cstring>
@@ -196,6 +197,12 @@ std::string edited(const std::string& bytes, size_t offset_from_end, double v) {
   std::memcpy(out.data() + 24, &sum, 8);
   return out;
 }
+// The double `offset_from_end` doubles before the end of `bytes`.
+double read_double(const std::string& bytes, size_t offset_from_end) {
+  double v;
+  std::memcpy(&v, bytes.data() + bytes.size() - 8 * offset_from_end, 8);
+  return v;
+}
 }  // namespace
 
 // A checksum anyone can recompute does not vouch for the numbers: a predictor whose payload is not
@@ -242,5 +249,44 @@ TEST(SpringPredictorFile, EditedPayloadWithAValidChecksumIsRefused) {
     ASSERT_FALSE(r.ok());
     EXPECT_TRUE(contains(r.error().message, "the sparse factor's entry")) << r.error().message;
     EXPECT_TRUE(contains(r.error().message, "is not finite")) << r.error().message;
+    // Finite, positive, inside its triangle, and wrong: a 1/D entry doubled, an entry of L changed
+    // (the fuzzer's finding: a factor of another matrix passes every check of form).
+    for (const std::string& file : {edited(bytes, n - 3, 2 * read_double(bytes, n - 3)), edited(bytes, n + 1, 0.25)}) {
+      write_all(bad, file);
+      r = load_predictor(bad, net, o);
+      ASSERT_FALSE(r.ok());
+      EXPECT_TRUE(contains(r.error().message, bad.string() + ": corrupted: the sparse factor is not this network's"))
+          << r.error().message;
+    }
+  }
+  {
+    // A symmetric edit with a positive diagonal passes the dense checks of form; not the residual.
+    const SpringModelOptions o = opts(SpringSolver::desbrun);
+    const auto good = temp_file("dense_edit2.predictor");
+    ASSERT_TRUE(save_predictor(good, must_build(net, o)).ok());
+    const auto bad = temp_file("dense_bad2.predictor");
+    auto at = [&](size_t i, size_t j) { return n * n - (i * n + j); };
+    const std::string bytes = read_all(good);
+    write_all(bad, edited(edited(bytes, at(3, 3), 1.5 * read_double(bytes, at(3, 3))), at(1, 1),
+                          0.5 * read_double(bytes, at(1, 1))));
+    auto r = load_predictor(bad, net, o);
+    ASSERT_FALSE(r.ok());
+    EXPECT_TRUE(contains(r.error().message, bad.string() + ": corrupted: the dense inverse is not this network's"))
+        << r.error().message;
+  }
+}
+
+// The check behind those refusals: the network's own predictor solves A x = b to round-off, one of
+// a network that differs only in its stiffness does not.
+TEST(SpringPredictorFile, ResidualIsRoundOffOnlyForTheNetworksOwnPredictor) {
+  const SpringNetwork soft = block_network(4, 3, 3, 0.01, 300.0, 0.1, true, 0.05);
+  const SpringNetwork stiff = block_network(4, 3, 3, 0.01, 330.0, 0.1, true, 0.05);
+  for (SpringSolver solver : {SpringSolver::desbrun, SpringSolver::sparse}) {
+    const SpringModelOptions o = opts(solver);
+    const SpringPredictor own = must_build(soft, o).predictor, other = must_build(stiff, o).predictor;
+    const double good = spring::predictor_residual(soft, o, own), bad = spring::predictor_residual(soft, o, other);
+    EXPECT_LT(good, 1e-13) << static_cast<int>(solver);
+    EXPECT_GT(bad, 1e-4) << static_cast<int>(solver);
+    EXPECT_LT(spring::predictor_residual(stiff, o, other), 1e-13) << static_cast<int>(solver);
   }
 }

@@ -10,6 +10,8 @@
 
 #include <palpate/spring.h>
 
+#include "tissue/spring/solve.h"
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -279,6 +281,15 @@ Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const 
     }
   }
   if (r.left != 0) return Error{where + "corrupted: " + std::to_string(r.left) + " unexpected bytes at the end of the payload"};
+  // Last, what the checks above cannot see: that the numbers are this network's predictor at all (a
+  // factor of another matrix passes every check of form and blows the organ up at rest). The
+  // network's own is at round-off (1e-16 to 1e-12 on the shipped organs); 1e-8 leaves room for an
+  // ill-conditioned network's dense inverse and is far below what moves a step.
+  constexpr double kMaxResidual = 1e-8;
+  if (const double res = spring::predictor_residual(net, options, p); !(res <= kMaxResidual))
+    return Error{where + "corrupted: the " + (p.kind == SpringSolver::desbrun ? "dense inverse" : "sparse factor") +
+                 " is not this network's (solving A x = b with it leaves a relative residual of " + num(res) +
+                 ", expected at most " + num(kMaxResidual) + ")"};
   return p;
 }
 

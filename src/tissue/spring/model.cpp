@@ -14,6 +14,8 @@
 #include "tissue/spring/solve.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <span>
 #include <string>
 #include <unordered_map>
@@ -100,6 +102,45 @@ Status check_options(const SpringModelOptions& o) {
 }
 
 }  // namespace
+
+double spring::predictor_residual(const SpringNetwork& net, const SpringModelOptions& o, const SpringPredictor& p) {
+  const int n = static_cast<int>(net.size());
+  if (p.kind == SpringSolver::exact || p.n != n || n == 0) return std::numeric_limits<double>::quiet_NaN();
+  Eigen::SparseMatrix<double> A(n, n);
+  const auto triplets = predictor_triplets(net, o);
+  A.setFromTriplets(triplets.begin(), triplets.end());
+  // x: values in [-1, 1] from a fixed integer hash, different in each column, no structure a
+  // factor of another matrix could share.
+  RowMat3d x(n, 3), b(n, 3), solved(n, 3);
+  std::uint64_t h = 0x9e3779b97f4a7c15ULL;
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) {
+      h ^= h >> 33;
+      h *= 0xff51afd7ed558ccdULL;
+      h ^= h >> 29;
+      h += 0x632be59bd9b4e5bULL;
+      x(i, c) = static_cast<double>(h >> 11) * 0x1.0p-52 - 1.0;
+    }
+  b = A * x;
+  if (p.kind == SpringSolver::desbrun) {
+    if (p.inverse.size() != static_cast<size_t>(n) * static_cast<size_t>(n)) return std::numeric_limits<double>::quiet_NaN();
+    const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> W(p.inverse.data(), n, n);
+    solved = W * b;
+  } else {
+    RowMat3d scratch(n, 3);
+    solve_columns(p, b, solved, scratch);
+  }
+  if (!solved.allFinite()) return std::numeric_limits<double>::quiet_NaN();
+  double norm_a = 0;  // ‖A‖∞: the largest absolute row sum (A is symmetric: column sums)
+  for (int k = 0; k < A.outerSize(); ++k) {
+    double sum = 0;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(A, k); it; ++it) sum += std::abs(it.value());
+    norm_a = std::max(norm_a, sum);
+  }
+  const RowMat3d r = A * solved - b;
+  const double denom = norm_a * solved.cwiseAbs().maxCoeff() + b.cwiseAbs().maxCoeff();
+  return denom > 0 ? r.cwiseAbs().maxCoeff() / denom : std::numeric_limits<double>::quiet_NaN();
+}
 
 Result<SpringPredictor> build_predictor(const SpringNetwork& net, const SpringModelOptions& o,
                                         const Progress& progress) {

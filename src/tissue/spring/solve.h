@@ -67,6 +67,14 @@ void solve_columns(const SpringPredictor& predictor, const RowMat3d& b, RowMat3d
 void solve_dense(const SpringPredictor& predictor, const std::vector<float>& inverse_single, const RowMat3d& b,
                  RowMat3d& x, double* scratch, bool symmetric = true) noexcept;
 
+// How far `predictor` is from being the inverse of the network's matrix A (for these options): with
+// b = A x for a fixed spread of values x (three columns), x̂ the predictor's solve of b, the backward
+// error ‖A x̂ − b‖∞ / (‖A‖∞ ‖x̂‖∞ + ‖b‖∞). Round-off (1e-16 to 1e-12) for the network's own
+// factor or inverse; order 1 for one of another matrix. NaN when the solve is not finite. A file's
+// checksum proves only that nobody damaged it by accident (load_predictor checks this as well).
+double predictor_residual(const SpringNetwork& network, const SpringModelOptions& options,
+                          const SpringPredictor& predictor);
+
 // Doubles of scratch solve_dense needs: six arrays of n rounded up to 8, from a 64-byte boundary.
 size_t dense_scratch(int n);
 
