@@ -373,6 +373,11 @@ TEST(SceneErrors, YamlSyntaxErrorGivesLine) {
   EXPECT_NE(e.find(": YAML syntax error: "), std::string::npos) << e;
   EXPECT_NE(e.find("(column "), std::string::npos) << e;
   EXPECT_EQ(error_of("name: x\n  bad: indent\n").substr(0, 35), "s.yaml:2: YAML syntax error: illega");
+  // A document that opens with a token no node starts with: yaml-cpp 0.7's LoadAll looped on it
+  // until memory ran out (found by fuzz_scene); now an error naming the line and column.
+  EXPECT_EQ(error_of(","), "s.yaml:1: YAML syntax error: ',' cannot start a document (column 1)");
+  EXPECT_EQ(error_of("# a comment\n  , 1 mm spacing\n"),
+            "s.yaml:2: YAML syntax error: ',' cannot start a document (column 3)");
 }
 
 TEST(SceneErrors, EmptyFileAndNonMappingTopLevel) {

@@ -7,6 +7,7 @@
 #include <palpate/scene.h>
 
 #include <fmt/format.h>
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -553,6 +554,50 @@ SceneDef parse_root(const Ctx& c, const YAML::Node& root) {
   return s;
 }
 
+// Where each YAML document of a stream starts, at most `limit` of them — the events only, no nodes.
+// yaml-cpp 0.7's LoadAll never returns on a stream whose document opens with a token no node can
+// start with (a lone ','): its parser reports a null document without consuming the token, again
+// and again, each one appended to the result until memory runs out (found by fuzzing; yaml-cpp
+// issue 1040, fixed upstream in 0.8.0 by stopping at such a document). Counting a bounded number
+// of documents and comparing where they start finds it: a document that starts where the one
+// before it started consumed nothing.
+// Each document: where it starts (its first token, `---` when it has one) and its root node.
+struct DocumentMarks {
+  YAML::Mark start, root = YAML::Mark::null_mark();
+};
+
+class DocumentStarts final : public YAML::EventHandler {
+ public:
+  std::vector<DocumentMarks> docs;
+  void OnDocumentStart(const YAML::Mark& mark) override { docs.push_back({mark}); }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& m, YAML::anchor_t) override { node(m); }
+  void OnAlias(const YAML::Mark& m, YAML::anchor_t) override { node(m); }
+  void OnScalar(const YAML::Mark& m, const std::string&, YAML::anchor_t, const std::string&) override { node(m); }
+  void OnSequenceStart(const YAML::Mark& m, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(m);
+  }
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark& m, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(m);
+  }
+  void OnMapEnd() override {}
+
+ private:
+  void node(const YAML::Mark& m) {
+    if (!docs.empty() && docs.back().root.is_null()) docs.back().root = m;
+  }
+};
+
+std::vector<DocumentMarks> document_starts(const std::string& yaml, size_t limit) {
+  std::istringstream in(yaml);
+  YAML::Parser parser(in);
+  DocumentStarts events;
+  while (events.docs.size() < limit && parser.HandleNextDocument(events)) {
+  }
+  return events.docs;
+}
+
 }  // namespace
 
 Result<SceneDef> parse_scene(const std::string& yaml, const std::string& name, const fs::path& base_dir) {
@@ -560,10 +605,18 @@ Result<SceneDef> parse_scene(const std::string& yaml, const std::string& name, c
   try {
     YAML::Node root;
     try {
-      const std::vector<YAML::Node> docs = YAML::LoadAll(yaml);
-      if (docs.size() > 1)
-        c.fail(line_of(docs[1], 0), "", "a second YAML document starts here; expected one scene per file");
-      if (!docs.empty()) root = docs[0];
+      // One document, and only one (not YAML::LoadAll: see document_starts).
+      const std::vector<DocumentMarks> docs = document_starts(yaml, 2);
+      if (docs.size() > 1) {
+        const YAML::Mark& at = docs[0].start;
+        if (docs[1].start.pos == at.pos)
+          return Error{fmt::format("{}:{}: YAML syntax error: '{}' cannot start a document (column {})", name,
+                                   at.line + 1, at.pos >= 0 && size_t(at.pos) < yaml.size() ? yaml[size_t(at.pos)] : '?',
+                                   at.column + 1)};
+        const YAML::Mark& second = docs[1].root.is_null() ? docs[1].start : docs[1].root;
+        c.fail(second.line + 1, "", "a second YAML document starts here; expected one scene per file");
+      }
+      if (!docs.empty()) root = YAML::Load(yaml);
     } catch (const YAML::ParserException& e) {
       std::string m = name;
       if (e.mark.line >= 0) m += ":" + std::to_string(e.mark.line + 1);
