@@ -126,6 +126,13 @@ int run_command(const RunArgs& a) {
       fmt::print("safety     non-finite {}, step failed {}, overrun {}, stalled {}, device failed {}\n",
                  c.non_finite, c.step_failed, c.overrun, c.stalled, c.device_failed);
     if (s.recorder_dropped > 0) fmt::print("recorder   {} rows dropped\n", s.recorder_dropped);
+    for (const LoopPhysicsStats& p : s.physics) {
+      const std::string name = p.tissue >= 0 && size_t(p.tissue) < s.tissue_names.size() ? s.tissue_names[size_t(p.tissue)] : "?";
+      fmt::print("physics    {}: {} steps at {:.0f} Hz, step median {:.2f} ms, p99 {:.2f} ms, max {:.2f} ms; {} late; "
+                 "{} ticks from the contact patch, {} fell back\n",
+                 name, p.steps, p.period > 0 ? 1.0 / p.period : 0.0, p.step.median * 1e3, p.step.p99 * 1e3,
+                 p.step.max * 1e3, p.late, p.patch_ticks, p.patch_fallbacks);
+    }
     fmt::print("max force  {:.3f} N\n", s.max_force);
     for (const LoopToolStats& t : s.tools) {
       const SafetyCounters& tc = t.safety;

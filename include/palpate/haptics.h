@@ -151,6 +151,18 @@ struct LoopToolStats {
   Vec3 last_force = Vec3::Zero();     // N
 };
 
+// A tissue stepped on its own thread (LoopTissue::physics_dt > 0; docs/haptics.md, "Multi-rate"):
+// whether its physics kept its rate, and how the haptic thread rendered it.
+struct LoopPhysicsStats {
+  int tissue = -1;                    // index in the loop's tissues
+  double period = 0;                  // s, the physics period asked for
+  std::uint64_t steps = 0;            // physics steps taken
+  TimingFigures step;                 // s, one physics step's work (the step and what it publishes)
+  std::uint64_t late = 0;             // steps that ended after the next one was due (threaded only)
+  std::uint64_t patch_ticks = 0;      // haptic ticks rendered from the compliant contact patch
+  std::uint64_t patch_fallbacks = 0;  // ticks a published patch did not cover the tool (linearised instead)
+};
+
 // The loop's statistics, readable live from any thread (for a viewer) and at the end.
 struct LoopStats {
   std::uint64_t ticks = 0;
@@ -167,6 +179,7 @@ struct LoopStats {
   bool realtime_priority = false;     // whether SCHED_FIFO was granted
   bool running = false;
   std::vector<LoopToolStats> tools;   // the extra tools (create()'s order)
+  std::vector<LoopPhysicsStats> physics;  // the tissues on their own thread, in tissue order
 };
 
 // Process-wide settings for a realtime haptic thread, as realtime Linux applications make them

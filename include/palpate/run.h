@@ -77,6 +77,8 @@ struct RunSummary {
   std::vector<RunFrame> ultrasound;               // ultrasound images written, if asked for
   std::string ultrasound_error;                   // why they are missing, if they are
   std::vector<LoopToolStats> tools;               // the extra tools (the probe): force, safety
+  std::vector<LoopPhysicsStats> physics;          // tissues on their own thread: steps, step time, late
+  std::vector<std::string> tissue_names;          // the tissues' names, in the loop's order
 };
 
 // What a run of `ticks` ticks recording `columns` columns writes and holds (estimates): run.csv's

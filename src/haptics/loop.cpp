@@ -599,6 +599,19 @@ LoopStats HapticLoop::stats() const {
     ts.last_force = Vec3(x.fx.get(), x.fy.get(), x.fz.get());
     st.tools.push_back(std::move(ts));
   }
+  for (size_t i = 0; i < m.slots.size(); ++i) {
+    const PhysicsWorker* w = m.slots[i].worker.get();
+    if (!w) continue;
+    LoopPhysicsStats ps;
+    ps.tissue = static_cast<int>(i);
+    ps.period = w->physics_dt();
+    ps.steps = w->physics_steps();
+    ps.step = figures_of(w->step_times());
+    ps.late = w->late_steps();
+    ps.patch_ticks = w->patch_ticks();
+    ps.patch_fallbacks = w->patch_fallbacks();
+    st.physics.push_back(ps);
+  }
   return st;
 }
 

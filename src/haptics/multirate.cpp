@@ -56,6 +56,7 @@ void PhysicsWorker::stop() {
 }
 
 void PhysicsWorker::physics_step(const ToolState& tool) noexcept {
+  const std::int64_t began = monotonic_ns();
   const Vec3 f = tissue_.step(tool, physics_dt_);
   PhysicsSnapshot& s = out_.write_slot();
   s.ok = f.allFinite() && tool.tip.allFinite() && !tissue_.last_step_failed();
@@ -86,6 +87,7 @@ void PhysicsWorker::physics_step(const ToolState& tool) noexcept {
       event_scratch_[i].tissue = index_;
       (void)events_.try_push({&event_scratch_[i], 1});  // full: dropped (256 pending is plenty)
     }
+  step_h_.add(double(monotonic_ns() - began) * 1e-9);
   steps_.store(steps_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
 }
 
@@ -97,6 +99,7 @@ void PhysicsWorker::physics_main() noexcept {
     physics_step(tool_in_.read());
     next += period;
     const std::int64_t now = monotonic_ns();
+    if (now > next) late_.store(late_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
     if (now > next + 10 * period) next = now;  // fell far behind: don't try to catch up
     sleep_until_ns(next, 0);
   }
@@ -115,6 +118,7 @@ TickFault PhysicsWorker::render(const ToolState& tool, std::int64_t now_ns, doub
   const size_t nf = std::min(figures.size(), s.figures.size());
   std::copy_n(s.figures.begin(), nf, figures.begin());
   force.setZero();
+  rendered_jacobian_.setZero();
   if (threaded_ && stall_timeout > 0) {
     const std::int64_t since = s.seq ? s.published_ns : started_ns_;
     if (double(now_ns - since) * 1e-9 > stall_timeout) return TickFault::stalled;
@@ -129,12 +133,18 @@ TickFault PhysicsWorker::render(const ToolState& tool, std::int64_t now_ns, doub
     const PatchContact c = solve_patch(s.patch, tool.tip, tool.radius, max_stiffness_, patch_scratch_, elapsed);
     if (c.valid) {
       force = c.force;
-      ++patch_ticks_;
+      const double magnitude = c.force.norm();
+      if (magnitude > 0) {
+        const Vec3 d = c.force / magnitude;
+        rendered_jacobian_ = -c.stiffness * d * d.transpose();
+      }
+      patch_ticks_.store(patch_ticks_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
       return TickFault::none;
     }
-    ++patch_fallbacks_;
+    patch_fallbacks_.store(patch_fallbacks_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   }
   force = s.contact.force_at(tool.tip);
+  rendered_jacobian_ = s.contact.jacobian;
   return TickFault::none;
 }
 

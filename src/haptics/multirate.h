@@ -8,6 +8,7 @@
 #include <palpate/tissue.h>
 
 #include "haptics/contact.h"
+#include "haptics/histogram.h"
 #include "haptics/patch_contact.h"
 #include "haptics/spsc_ring.h"
 #include "haptics/triple_buffer.h"
@@ -56,15 +57,23 @@ class PhysicsWorker {
   // published for `stall_timeout` s (counted from start), `step_failed` for a non-finite step.
   TickFault render(const ToolState& tool, std::int64_t now_ns, double stall_timeout, Vec3& force,
                    std::span<double> figures) noexcept;
-  // The Jacobian of the last published contact (for the virtual coupling).
-  const Mat3& jacobian() const noexcept { return out_.read().contact.jacobian; }
+  // Haptic thread, after render(): the Jacobian ∂F/∂x of the contact that tick rendered (for the
+  // virtual coupling's implicit proxy step): from the compliant patch's solve, −k_eff d dᵀ along the
+  // force (k_eff = k / (1 + k w) ≤ the device's stiffness), else the linearisation's J.
+  const Mat3& jacobian() const noexcept { return rendered_jacobian_; }
   // Haptic thread: move tissue events the physics side queued into `out`.
   size_t drain_events(std::span<TissueEvent> out) noexcept;
   std::uint64_t physics_steps() const noexcept { return steps_.load(std::memory_order_relaxed); }
   // Haptic ticks rendered from the compliant patch, and those that fell back to the linearised
   // contact although a patch was published (the tool outside its reach). Haptic-thread counters.
-  std::uint64_t patch_ticks() const noexcept { return patch_ticks_; }
-  std::uint64_t patch_fallbacks() const noexcept { return patch_fallbacks_; }
+  // Single writer (the haptic thread), readable live from any thread.
+  std::uint64_t patch_ticks() const noexcept { return patch_ticks_.load(std::memory_order_relaxed); }
+  std::uint64_t patch_fallbacks() const noexcept { return patch_fallbacks_.load(std::memory_order_relaxed); }
+  // Each physics step's work (s: the tissue's step, its contact patch, publishing), and the steps
+  // that ended after the next was due (threaded: the physics did not keep its rate). Readable live.
+  const LatencyHistogram& step_times() const noexcept { return step_h_; }
+  std::uint64_t late_steps() const noexcept { return late_.load(std::memory_order_relaxed); }
+  double physics_dt() const noexcept { return physics_dt_; }
   // Pin the physics thread to this CPU (best effort, before start(); -1: leave it to the OS).
   void set_cpu(int cpu) noexcept { cpu_ = cpu; }
 
@@ -83,9 +92,12 @@ class PhysicsWorker {
   MultiRateContact method_;
   ContactComplianceSource* compliance_ = nullptr;
   PatchScratch patch_scratch_;            // haptic thread
+  Mat3 rendered_jacobian_ = Mat3::Zero();  // haptic thread: the last tick's ∂F/∂x
   std::uint64_t rendered_seq_ = 0;        // haptic thread: the snapshot last rendered, and how many
   std::uint64_t ticks_on_snapshot_ = 0;   // ticks it has been rendered for
-  std::uint64_t patch_ticks_ = 0, patch_fallbacks_ = 0;
+  std::atomic<std::uint64_t> patch_ticks_{0}, patch_fallbacks_{0};  // haptic thread writes
+  LatencyHistogram step_h_;               // physics step's work (the thread that steps writes)
+  std::atomic<std::uint64_t> late_{0};
   int cpu_ = -1;
   TripleBuffer<ToolState> tool_in_;
   TripleBuffer<PhysicsSnapshot> out_;

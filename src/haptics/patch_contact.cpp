@@ -87,7 +87,7 @@ PatchContact solve_patch(const ContactPatch& patch, const Vec3& centre, double r
     free[i] = patch.free_position[i] + tau * patch.free_velocity[i];
     s.position[i] = free[i];
   }
-  double f = 0;
+  double f = 0, w_last = 0;
   Geometry geo;
   for (int it = 0; it < max_iterations; ++it) {
     geo = contact_geometry(patch, centre, radius, s);
@@ -104,6 +104,7 @@ PatchContact solve_patch(const ContactPatch& patch, const Vec3& centre, double r
       }
     }
     w = std::max(0.0, w);
+    w_last = w;
     double f_new = std::max(0.0, k * (geo.depth + w * f) / (1 + k * w));
     // The geometry moves with the load (which triangles press, their weights): past the first
     // iterations, half steps keep the iteration from cycling between two contact sets.
@@ -123,6 +124,7 @@ PatchContact solve_patch(const ContactPatch& patch, const Vec3& centre, double r
   }
   out.force = f * geo.direction;
   out.depth = f > 0 && k > 0 ? f / k : 0.0;
+  out.stiffness = f > 0 ? k / (1 + k * w_last) : 0.0;
   out.valid = out.force.allFinite();
   if (!out.valid) out.force.setZero();
   return out;

@@ -21,6 +21,9 @@ struct PatchScratch {
 struct PatchContact {
   Vec3 force = Vec3::Zero();  // N, on the tool
   double depth = 0;           // m, Φ at the solution
+  double stiffness = 0;       // N/m, dF/dΦ at the solution: k / (1 + k w), 0 out of contact; the
+                              // contact's Jacobian on the tool is −stiffness · d dᵀ, d the force's
+                              // direction (for the virtual coupling's implicit proxy step)
   int iterations = 0;
   bool valid = false;         // false: the tool is outside the patch's reach (or inside the organ
                               // deeper than its radius); the caller renders something else

@@ -473,7 +473,22 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   }
   j["recorder_dropped"] = st.recorder_dropped;
   j["tissues"] = nlohmann::json::array();
-  for (const auto& t : tissues) j["tissues"].push_back(t->name());
+  for (const auto& t : tissues) {
+    j["tissues"].push_back(t->name());
+    summary.tissue_names.push_back(t->name());
+  }
+  // The tissues stepped on their own thread (multi-rate): did the physics keep its rate, and how
+  // many haptic ticks were rendered from the compliant contact patch.
+  summary.physics = st.physics;
+  j["physics"] = nlohmann::json::array();
+  for (const LoopPhysicsStats& p : st.physics)
+    j["physics"].push_back({{"tissue", p.tissue >= 0 && size_t(p.tissue) < tissues.size() ? tissues[size_t(p.tissue)]->name() : ""},
+                            {"rate_hz", p.period > 0 ? 1.0 / p.period : 0.0},
+                            {"steps", p.steps},
+                            {"step_time_s", {{"median", p.step.median}, {"p99", p.step.p99}, {"max", p.step.max}}},
+                            {"late_steps", p.late},
+                            {"patch_ticks", p.patch_ticks},
+                            {"patch_fallbacks", p.patch_fallbacks}});
   j["events"] = nlohmann::json::array();
   for (const RunEvent& e : summary.events)
     j["events"].push_back({{"time_s", e.time}, {"kind", e.kind}, {"tissue", e.tissue},

@@ -11,6 +11,7 @@
 #include "spring_fixtures.h"
 #include "tissue/spring/solve.h"
 
+#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -308,6 +309,33 @@ TEST(ContactCompliance, LargeOrganSceneRendersFromTheCompliance) {
     EXPECT_EQ(worker.render(tool, 0, 0.0, f, figures), TickFault::none);
     if (f.norm() > 0) ++touching;
     peak = std::max(peak, f.norm());
+  }
+  // The contact's Jacobian for the virtual coupling, from the patch's solve (not the secant):
+  // symmetric, passive (eigenvalues in [−the device's stiffness, 0]), pressing back along the force.
+  const Mat3 J = worker.jacobian();
+  EXPECT_LT((J - J.transpose()).norm(), 1e-12 * (1 + J.norm()));
+  const Eigen::Vector3d eig = Eigen::SelfAdjointEigenSolver<Mat3>(0.5 * (J + J.transpose())).eigenvalues();
+  EXPECT_GE(eig.minCoeff(), -scene->device.stiffness * (1 + 1e-12));
+  EXPECT_LE(eig.maxCoeff(), 1e-9);
+  EXPECT_LT(eig.minCoeff(), -1.0) << "no stiffness at a 5 mm press";
+  {
+    // ... and it is the solve's own derivative: the patch of the organ as it stands, the force's
+    // change for the tool moved 10 µm either way along the force, against −d·J·d.
+    ToolState tool;
+    tool.radius = scene->tool.radius;
+    tool.tip = Vec3(0, -0.001, 0);
+    ContactPatch patch;
+    ASSERT_TRUE((*tissue)->contact_compliance()->contact_patch(tool, physics_dt, patch));
+    PatchScratch scratch;
+    const PatchContact at = solve_patch(patch, tool.tip, tool.radius, scene->device.stiffness, scratch);
+    ASSERT_TRUE(at.valid);
+    ASSERT_GT(at.force.norm(), 0.0);
+    const Vec3 d = at.force.normalized();
+    const double h = 1e-5;
+    const PatchContact in = solve_patch(patch, tool.tip - h * d, tool.radius, scene->device.stiffness, scratch);
+    const PatchContact out = solve_patch(patch, tool.tip + h * d, tool.radius, scene->device.stiffness, scratch);
+    const double fd = (in.force.dot(d) - out.force.dot(d)) / (2 * h);
+    EXPECT_NEAR(at.stiffness, fd, 0.1 * fd) << "dF/dx along the force, N/m";
   }
   worker.stop();
   std::filesystem::remove_all(scene->output);

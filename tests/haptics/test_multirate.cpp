@@ -56,6 +56,20 @@ TEST(MultiRate, LinearisedContactRendersLinearTissueExactlyBetweenSteps) {
   }
   // Smooth at 1 kHz: each tick changes by k·v·dt, not by the 10-tick jump a hold would give.
   EXPECT_LT(max_jump, 1.001 * k * 0.006 * kDt);
+  // The loop's report of the physics (summary.json's "physics"): headless, a step every 10 ticks
+  // from the first, none late (inline steps have no schedule to miss), no contact patch (the floor
+  // offers none).
+  const palpate::LoopStats st = (*loop)->stats();
+  ASSERT_EQ(st.physics.size(), 1u);
+  const palpate::LoopPhysicsStats& ps = st.physics[0];
+  EXPECT_EQ(ps.tissue, 0);
+  EXPECT_DOUBLE_EQ(ps.period, 0.010);
+  EXPECT_EQ(ps.steps, 100u);
+  EXPECT_EQ(ps.late, 0u);
+  EXPECT_EQ(ps.patch_ticks + ps.patch_fallbacks, 0u);
+  EXPECT_GT(ps.step.median, 0.0);
+  EXPECT_LE(ps.step.median, ps.step.p99);
+  EXPECT_LE(ps.step.p99, ps.step.max);
 }
 
 TEST(MultiRate, ModelSuppliedJacobianIsUsedFromItsFirstStep) {
@@ -144,4 +158,10 @@ TEST(MultiRate, StalledPhysicsThreadGivesZeroForceAndRecovers) {
   for (size_t k = last_stalled + 1; k < fy.size(); ++k) after = std::max(after, fy[k]);
   EXPECT_NEAR(before, 1.5, 1e-6);
   EXPECT_NEAR(after, 1.5, 1e-6);
+  // The stall is in the physics report too: one step of about 500 ms, ending long after the next
+  // was due (4 ms period).
+  ASSERT_EQ(st.physics.size(), 1u);
+  EXPECT_GE(st.physics[0].step.max, 0.45);
+  EXPECT_GE(st.physics[0].late, 1u);
+  EXPECT_GT(st.physics[0].steps, 50u);
 }

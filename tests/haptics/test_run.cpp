@@ -141,6 +141,35 @@ TEST(Run, FixedTicksCsvAndSummary) {
   EXPECT_EQ(marks, 2u);
 }
 
+TEST(Run, SummaryReportsTheTissuesOnTheirOwnThread) {
+  // summary.json's "physics": each multi-rate tissue's steps, step time and late steps (here
+  // headless: inline every 10 ticks), and an empty list when every tissue steps every tick.
+  const fs::path out = fs::temp_directory_path() / "palpate_test_run_physics";
+  fs::remove_all(out);
+  palpate::RunOptions o;
+  o.physics_dt = {0.010};
+  auto r = palpate::run_scene(press_scene(out), floor_of(300.0), o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->physics.size(), 1u);
+  EXPECT_EQ(r->physics[0].steps, 100u);
+  auto j = nlohmann::json::parse(slurp(out / "summary.json"));
+  ASSERT_EQ(j["physics"].size(), 1u) << j.dump(2);
+  const auto& p = j["physics"][0];
+  EXPECT_EQ(p["tissue"], "floor");
+  EXPECT_DOUBLE_EQ(p["rate_hz"].get<double>(), 100.0);
+  EXPECT_EQ(p["steps"], 100);
+  EXPECT_EQ(p["late_steps"], 0);
+  EXPECT_EQ(p["patch_ticks"], 0);
+  EXPECT_GT(p["step_time_s"]["max"].get<double>(), 0.0);
+  EXPECT_GE(p["step_time_s"]["max"].get<double>(), p["step_time_s"]["median"].get<double>());
+  fs::remove_all(out);
+  auto plain = palpate::run_scene(press_scene(out), floor_of(300.0));
+  ASSERT_TRUE(plain.ok()) << plain.error().message;
+  EXPECT_TRUE(plain->physics.empty());
+  EXPECT_EQ(nlohmann::json::parse(slurp(out / "summary.json"))["physics"].size(), 0u);
+  fs::remove_all(out);
+}
+
 TEST(Run, ForceClampedToDeviceMaximum) {
   const fs::path out = fs::temp_directory_path() / "palpate_test_run_clamp";
   auto r = palpate::run_scene(press_scene(out), floor_of(1e5));
