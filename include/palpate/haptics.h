@@ -66,7 +66,10 @@ class ContactComplianceSource {
   // Physics thread, right after step(tool, dt): fill `out` around the tool. False when the model
   // has none this step (then the loop renders the linearised contact, ContactJacobianSource or the
   // secant). May compute and cache (allocation-free once warm), never called on the haptic thread.
-  virtual bool contact_patch(const ToolState& tool, double dt, ContactPatch& out) noexcept = 0;
+  // `horizon` (s, ≥ dt): how long the patch will be rendered before the next one — dt when the
+  // physics keeps its rate, the time its steps actually take when they run late; the patch reaches
+  // as far as the tool can go in that time.
+  virtual bool contact_patch(const ToolState& tool, double dt, double horizon, ContactPatch& out) noexcept = 0;
 };
 
 // A tool's force law other than the tissues' contact: evaluated on the haptic thread every tick

@@ -17,7 +17,16 @@ struct ContactLinearisation {
   Vec3 x0 = Vec3::Zero();         // m, tool position at the last physics step
   Vec3 f0 = Vec3::Zero();         // N, force at that step
   Mat3 jacobian = Mat3::Zero();   // N/m, ∂F/∂x
-  Vec3 force_at(const Vec3& x) const noexcept { return f0 + jacobian * (x - x0); }
+  // F0 + J·(x − x0), as a contact: it only pushes. Nothing where the step had no contact (f0 = 0:
+  // the tool was free, and a J learnt earlier must not render a force in free space — a 54k organ
+  // stepping late rendered 2.8 N on a probe 5 mm above it moving sideways; a contact that begins
+  // between steps is felt from the next step, at most a period late), and nothing once the linear
+  // force turns against f0's direction (the tool leaving).
+  Vec3 force_at(const Vec3& x) const noexcept {
+    if (!(f0.squaredNorm() > 0)) return Vec3::Zero();
+    const Vec3 f = f0 + jacobian * (x - x0);
+    return f.dot(f0) > 0 ? f : Vec3::Zero();
+  }
 };
 
 // Broyden's rank-one secant update (Broyden 1965, "A class of methods for solving nonlinear

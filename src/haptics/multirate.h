@@ -54,7 +54,8 @@ class PhysicsWorker {
 
   // Haptic thread, every tick: hand over the tool, render F0 + J·(x − x0) at the tool's tip into
   // `force`, copy the last figures into `figures`. Returns `stalled` when threaded and nothing was
-  // published for `stall_timeout` s (counted from start), `step_failed` for a non-finite step.
+  // published for max(`stall_timeout`, 10 physics periods) s (counted from start), `step_failed`
+  // for a non-finite step.
   TickFault render(const ToolState& tool, std::int64_t now_ns, double stall_timeout, Vec3& force,
                    std::span<double> figures) noexcept;
   // Haptic thread, after render(): the Jacobian ∂F/∂x of the contact that tick rendered (for the
@@ -104,6 +105,8 @@ class PhysicsWorker {
   SpscRing<TissueEvent> events_{256, 1};
   std::vector<TissueEvent> event_scratch_;
   std::uint64_t seq_ = 0;            // physics-side
+  std::int64_t last_published_ns_ = 0;  // physics-side: the last publish, and the time since the
+  double last_interval_ = 0;            // one before it (threaded only; s)
   std::int64_t started_ns_ = 0;
   std::atomic<bool> stop_{false};
   std::atomic<std::uint64_t> steps_{0};

@@ -325,7 +325,7 @@ TEST(ContactCompliance, LargeOrganSceneRendersFromTheCompliance) {
     tool.radius = scene->tool.radius;
     tool.tip = Vec3(0, -0.001, 0);
     ContactPatch patch;
-    ASSERT_TRUE((*tissue)->contact_compliance()->contact_patch(tool, physics_dt, patch));
+    ASSERT_TRUE((*tissue)->contact_compliance()->contact_patch(tool, physics_dt, physics_dt, patch));
     PatchScratch scratch;
     const PatchContact at = solve_patch(patch, tool.tip, tool.radius, scene->device.stiffness, scratch);
     ASSERT_TRUE(at.valid);

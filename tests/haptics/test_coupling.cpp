@@ -105,3 +105,18 @@ TEST(HapticCoupling, PassiveProjectionIsSymmetricAndWithinLimits) {
   nan(0, 0) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(palpate::make_passive(nan, 1000.0), Mat3::Zero());
 }
+
+TEST(HapticCoupling, ALinearisedContactOnlyPushes) {
+  // A contact linearised at a physics step (multi-rate): F0 + J·(x − x0) while it pushes along F0;
+  // nothing where the step had no contact, whatever J was learnt before (the tool free above a
+  // slow organ, moved sideways, was sent 2.8 N), and nothing once the tool leaves.
+  palpate::ContactLinearisation c;
+  c.x0 = Vec3(0.008, 0.005, 0);
+  c.jacobian << -355, 0, 0, 0, -500, 0, 0, 0, -100;
+  EXPECT_EQ(c.force_at(Vec3(0, 0.005, 0)), Vec3::Zero()) << "free at the step: free between steps";
+  c.f0 = Vec3(0, 1.0, 0);
+  EXPECT_TRUE(c.force_at(Vec3(0.008, 0.004, 0)).isApprox(Vec3(0, 1.5, 0)));  // 1 mm further in
+  EXPECT_TRUE(c.force_at(Vec3(0.007, 0.005, 0)).isApprox(Vec3(0.355, 1.0, 0)));
+  EXPECT_EQ(c.force_at(Vec3(0.008, 0.0071, 0)), Vec3::Zero()) << "2.1 mm out: the linear force would pull";
+  EXPECT_NEAR(c.force_at(Vec3(0.008, 0.0069, 0)).y(), 0.05, 1e-9) << "1.9 mm out: still pushing, continuous";
+}

@@ -165,3 +165,45 @@ TEST(MultiRate, StalledPhysicsThreadGivesZeroForceAndRecovers) {
   EXPECT_GE(st.physics[0].late, 1u);
   EXPECT_GT(st.physics[0].steps, 50u);
 }
+
+TEST(MultiRate, ASlowPhysicsStepIsLateNotAStall) {
+  // A 20 ms physics period whose every step takes 60 ms (the 54k organ on a 2-core machine): the
+  // physics falls behind its rate (counted late) but keeps publishing, so the haptic side renders
+  // its last contact instead of zeroing the force at the 50 ms stall timeout; a silence of ten
+  // periods (200 ms) would still be a stall (StalledPhysicsThreadGivesZeroForceAndRecovers).
+  LinearFloor floor(500.0);
+  floor.sleep_every = 1;
+  floor.step_sleep = 0.060;
+  palpate::VirtualDevice dev;
+  palpate::DeviceState p;
+  p.position = Vec3(0, -0.002, 0);  // 3 mm into the floor: 1.5 N
+  dev.set_pose(p);
+  palpate::LoopSettings s;
+  s.dt = kDt;
+  s.realtime = true;
+  s.try_realtime_priority = false;
+  s.ramp_in = 0.05;
+  s.max_ticks = 1500;
+  s.watchdog.stall_timeout = 0.05;
+  s.watchdog.overrun_margin = 0.05;  // a loaded test machine's overruns are tested elsewhere
+  auto loop = palpate::HapticLoop::create(dev, {{&floor, 0.020}}, s);
+  ASSERT_TRUE(loop.ok()) << loop.error().message;
+  ASSERT_TRUE((*loop)->start());
+  // Once the full force is sent it stays until the run's end (the stop ramps it out after tick 1500).
+  bool full = false;
+  double lowest_after_full = 1e9;
+  while ((*loop)->stats().ticks < 1400) {
+    const double f = dev.force().y();
+    if (std::abs(f - 1.5) < 1e-9) full = true;
+    if (full) lowest_after_full = std::min(lowest_after_full, f);
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+  (*loop)->wait();
+  const palpate::LoopStats st = (*loop)->stats();
+  EXPECT_EQ(st.safety.stalled, 0u);
+  ASSERT_EQ(st.physics.size(), 1u);
+  EXPECT_GE(st.physics[0].step.median, 0.055);
+  EXPECT_GE(st.physics[0].late, st.physics[0].steps / 2) << st.physics[0].steps << " steps";
+  EXPECT_TRUE(full) << "the loop never reached the full force";
+  EXPECT_NEAR(lowest_after_full, 1.5, 1e-9);
+}

@@ -55,12 +55,12 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
 
   // The compliant patch for a multi-rate loop (issue 24): only when one step() is one step of the
   // predictor (its compliance is that step's), built on the physics thread at its first call.
-  bool contact_patch(const ToolState& tool, double dt, ContactPatch& out) noexcept override {
+  bool contact_patch(const ToolState& tool, double dt, double horizon, ContactPatch& out) noexcept override {
     if (failed_ || std::lround(dt / step_length(model_.options)) != 1) return false;
     try {
       if (!compliance_) compliance_ = std::make_unique<SpringCompliance>(model_);
-      // Reach: where the tool can go before the next step, twice over, and at least a millimetre.
-      const double margin = std::max(0.001, 2.0 * tool.velocity.norm() * dt);
+      // Reach: where the tool can go before the next patch, twice over, and at least a millimetre.
+      const double margin = std::max(0.001, 2.0 * tool.velocity.norm() * std::max(dt, horizon));
       return compliance_->contact_patch(state_, tool, margin, out);
     } catch (...) {  // out of memory: the loop renders the linearised contact instead
       return false;
