@@ -45,7 +45,7 @@ struct SafetyCounters {
 // When the watchdog steps in (realtime runs; a headless run has no wall-clock deadline).
 struct WatchdogSettings {
   double overrun_margin = 0.0005;  // s past a tick's deadline (start + dt) before force goes to zero
-  double stall_timeout = 0.05;     // s without a new physics step before force goes to zero
+  double stall_timeout = 0.05;     // s without a new physics step before force goes to zero (or ten of its periods, when longer)
 };
 
 // Makes any requested force safe to send (DESIGN.md §3 "Safety"):

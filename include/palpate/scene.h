@@ -42,7 +42,7 @@ struct DeviceDef {
   std::string coupling = "direct";  // direct | virtual: force from the HIP, or a proxy coupling
   double proxy_mass = 0.001;        // kg, virtual coupling: mass of the tool proxy
   double overrun_margin = 0.0005;   // s, a tick's work this far past its deadline gives zero force
-  double stall_timeout = 0.05;      // s, a physics thread silent this long gives zero force
+  double stall_timeout = 0.05;      // s, a physics thread silent this long (or ten of its periods, when longer) gives zero force
   std::string hd_library = "libHD.so";  // openhaptics: the HD library dlopen'ed at run time
   std::string hd_device;            // openhaptics: device configuration name ("" = default)
 };
