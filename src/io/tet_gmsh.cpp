@@ -280,6 +280,22 @@ Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line,
 // Gmsh sizes memory by the counts and tag ranges a file promises, before reading what follows:
 // a damaged file promising billions of nodes (or a node tag of 10^12 in format 4) would have it
 // allocate terabytes or crash. Check those promises against the file's size first.
+// The four numbers after a section's name line, which ends just before byte `at` of the file `t`:
+// size_t in a binary v4 file, text otherwise. How many were read (sscanf's count for text).
+int section_counts(const std::string& t, size_t at, bool binary_v4, double (&v)[4]) {
+  v[0] = v[1] = v[2] = v[3] = 0;
+  if (binary_v4) {
+    if (at + 32 > t.size()) return 0;
+    for (int k = 0; k < 4; ++k) {
+      std::uint64_t x = 0;
+      std::memcpy(&x, t.data() + at + 8 * k, 8);
+      v[k] = static_cast<double>(x);
+    }
+    return 4;
+  }
+  return std::sscanf(t.c_str() + at, "%lf %lf %lf %lf", &v[0], &v[1], &v[2], &v[3]);
+}
+
 Status check_msh_counts(const std::filesystem::path& file) {
   Result<std::string> text = read_whole_file(file);
   if (!text) return text.error();
@@ -317,20 +333,8 @@ Status check_msh_counts(const std::filesystem::path& file) {
     if (header == "$Entities" && version >= 4 && end < bytes) {
       // Four counts (points, curves, surfaces, volumes) Gmsh sizes its entity tables by (found by
       // fuzzing: a binary count of 1.3e19 points made it allocate exabytes).
-      double v[4] = {0, 0, 0, 0};
-      int n = 0;
-      if (binary) {
-        if (end + 1 + 32 <= bytes) {
-          for (int k = 0; k < 4; ++k) {
-            std::uint64_t x = 0;
-            std::memcpy(&x, t.data() + end + 1 + 8 * k, 8);
-            v[k] = static_cast<double>(x);
-          }
-          n = 4;
-        }
-      } else {
-        n = std::sscanf(t.c_str() + end + 1, "%lf %lf %lf %lf", &v[0], &v[1], &v[2], &v[3]);
-      }
+      double v[4];
+      const int n = section_counts(t, end + 1, binary != 0, v);
       constexpr const char* kinds[4] = {"points", "curves", "surfaces", "volumes"};
       for (int k = 0; k < n; ++k)
         if (!(v[k] >= 0 && v[k] <= max_count))
@@ -338,21 +342,9 @@ Status check_msh_counts(const std::filesystem::path& file) {
                                    v[k], kinds[k])};
     }
     if ((nodes || elements) && end < bytes) {
-      double v[4] = {0, 0, 0, 0};
-      int n = 0;
-      if (version >= 4 && binary) {
-        // Four size_t after the section line: blocks, count, min tag, max tag.
-        if (end + 1 + 32 <= bytes) {
-          for (int k = 0; k < 4; ++k) {
-            std::uint64_t x = 0;
-            std::memcpy(&x, t.data() + end + 1 + 8 * k, 8);
-            v[k] = static_cast<double>(x);
-          }
-          n = 4;
-        }
-      } else {
-        n = std::sscanf(t.c_str() + end + 1, "%lf %lf %lf %lf", &v[0], &v[1], &v[2], &v[3]);
-      }
+      // v4: blocks, count, min tag, max tag; older: the count first.
+      double v[4];
+      const int n = section_counts(t, end + 1, version >= 4 && binary, v);
       const double count = version >= 4 ? v[1] : v[0];
       if (n >= 1 && (count < 0 || count > max_count))
         return Error{fmt::format("{}:{}: {} promises {:.0f} {}, more than the file can hold", name, line + 1, header,
