@@ -26,6 +26,27 @@ double floor_force(double k_floor, long tick) {
   return k_floor * std::max(0.0, 0.001 - descent(tick).y());  // tool radius 1 mm
 }
 
+// The device held 3 mm into a 500 N/m floor (1.5 N), and a realtime loop over `ticks` whose
+// watchdog stalls after `stall_timeout`; overruns of a loaded test machine (tested elsewhere) get a
+// wide margin, so they do not keep restarting the ramp-in.
+void press_into_floor(palpate::VirtualDevice& dev) {
+  palpate::DeviceState p;
+  p.position = Vec3(0, -0.002, 0);
+  dev.set_pose(p);
+}
+
+palpate::LoopSettings realtime(std::uint64_t ticks, double stall_timeout) {
+  palpate::LoopSettings s;
+  s.dt = kDt;
+  s.realtime = true;
+  s.try_realtime_priority = false;
+  s.ramp_in = 0.05;
+  s.max_ticks = ticks;
+  s.watchdog.stall_timeout = stall_timeout;
+  s.watchdog.overrun_margin = 0.05;
+  return s;
+}
+
 palpate::LoopSettings headless() {
   palpate::LoopSettings s;
   s.dt = kDt;
@@ -91,19 +112,8 @@ TEST(MultiRate, StalledPhysicsThreadGivesZeroForceAndRecovers) {
   const fs::path csv = fs::temp_directory_path() / "palpate_test_multirate_stall" / "run.csv";
   LinearFloor floor(500.0);
   palpate::VirtualDevice dev;
-  palpate::DeviceState p;
-  p.position = Vec3(0, -0.002, 0);  // 3 mm into the floor: 1.5 N
-  dev.set_pose(p);
-  palpate::LoopSettings s;
-  s.dt = kDt;
-  s.realtime = true;
-  s.try_realtime_priority = false;
-  s.ramp_in = 0.05;
-  s.max_ticks = 2000;
-  s.watchdog.stall_timeout = 0.1;
-  // This test is about stalls: a loaded test machine's overruns (tested elsewhere) must not keep
-  // restarting the ramp-in before the stall begins.
-  s.watchdog.overrun_margin = 0.05;
+  press_into_floor(dev);  // 1.5 N
+  palpate::LoopSettings s = realtime(2000, 0.1);
   s.csv = csv;
   auto loop = palpate::HapticLoop::create(dev, {{&floor, 0.004}}, s);
   ASSERT_TRUE(loop.ok()) << loop.error().message;
@@ -175,17 +185,8 @@ TEST(MultiRate, ASlowPhysicsStepIsLateNotAStall) {
   floor.sleep_every = 1;
   floor.step_sleep = 0.060;
   palpate::VirtualDevice dev;
-  palpate::DeviceState p;
-  p.position = Vec3(0, -0.002, 0);  // 3 mm into the floor: 1.5 N
-  dev.set_pose(p);
-  palpate::LoopSettings s;
-  s.dt = kDt;
-  s.realtime = true;
-  s.try_realtime_priority = false;
-  s.ramp_in = 0.05;
-  s.max_ticks = 1500;
-  s.watchdog.stall_timeout = 0.05;
-  s.watchdog.overrun_margin = 0.05;  // a loaded test machine's overruns are tested elsewhere
+  press_into_floor(dev);  // 1.5 N
+  const palpate::LoopSettings s = realtime(1500, 0.05);
   auto loop = palpate::HapticLoop::create(dev, {{&floor, 0.020}}, s);
   ASSERT_TRUE(loop.ok()) << loop.error().message;
   ASSERT_TRUE((*loop)->start());
