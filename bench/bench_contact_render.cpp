@@ -7,12 +7,17 @@
 // Counters: force_rms_error and force_max_error relative to the peak force of the truth;
 // render_rms_error and render_max_error against the physics model's own step taken every tick from
 // its last physics state at the tool's pose (the rendering's error alone), same scale.
+// PALPATE_EXACT_ITERATIONS=N steps the physics-rate models with N of the exact linearised step's
+// conjugate-gradient iterations after the predictor (SpringModelOptions::exact_iterations: N more
+// solves per step), to measure what converging the step buys; PALPATE_RENDER_DUMP=DIR writes each
+// row's forces tick by tick.
 #include <palpate/spring.h>
 
 #include "haptics/render_error.h"
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -45,6 +50,7 @@ SpringModelOptions options(double period, bool physics_rate, SpringIntegrator in
   o.dt = integrator == SpringIntegrator::bdf2 ? period * 2 / 3 : period;
   o.solver = SpringSolver::sparse;
   o.directional_correction = physics_rate;
+  if (const char* e = std::getenv("PALPATE_EXACT_ITERATIONS"); e && physics_rate) o.exact_iterations = std::max(0, std::atoi(e));
   return o;
 }
 
