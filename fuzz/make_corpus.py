@@ -56,7 +56,8 @@ put('fuzz_surface_off', 'cube_coff.off', 'COFF\n# colours per vertex\n8 12 0\n' 
 
 # --- tetrahedral meshes
 put('fuzz_gmsh', 'liver.msh', src('data/meshes/liver.msh'))
-for name in ('cube_v2.msh', 'cube_v4.msh', 'cube_v4_binary.msh'):
+for name in ('cube_v2.msh', 'cube_v4.msh', 'cube_v4_binary.msh', 'box_gmsh41_saveall.msh', 'box_gmsh41_saveall_binary.msh',
+             'box_gmsh41_partitioned.msh', 'box_gmsh41_partitioned_binary.msh'):
     put('fuzz_gmsh', name, src('tests/data/meshes/' + name))
 put('fuzz_gmsh', 'cube_v1.msh', '$NOD\n8\n' + ''.join(f'{i+1} {g(v)}\n' for i, v in enumerate(V)) +
     '$ENDNOD\n$ELM\n5\n' + ''.join(f'{e+1} 4 1 1 4 {" ".join(str(i+1) for i in t)}\n' for e, t in enumerate(T)) + '$ENDELM\n')

@@ -291,8 +291,25 @@ TEST(MeshErrors, GmshFilesThatWouldCrashGmsh) {
   far[919] = '\xcb';  // high byte of the last element's last node tag
   const auto far_node = dir.write("far.msh", far);
   expect_error(palpate::load_tet(far_node), far_node, {"$Elements (binary", "outside the $Nodes range [1, 8]"});
+  // An entity promising 10^12 bounding entities, and 4·10^9 ghost entities of a partitioned mesh
+  // (Gmsh sizes arrays by such counts before reading what they promise).
+  const auto bounds = replaced("bounds.msh", "1 0 0 0 1 1 1 1 2 0", "1 0 0 0 1 1 1 1 2 1000000000000");
+  EXPECT_EQ(palpate::load_tet(bounds).error().message,
+            bounds.string() + ":7: $Entities: promises 1000000000000 bounding entities of an entity, more than the "
+                              "file can hold");
+  const auto ghosts = replaced("ghosts.msh", "$Entities\n", "$PartitionedEntities\n2\n4000000000\n");
+  EXPECT_EQ(palpate::load_tet(ghosts).error().message,
+            ghosts.string() + ":6: $PartitionedEntities: promises 4000000000 ghost entities, more than the file can hold");
+  // Binary: the surface's count of physical tags raised to 6.9·10^10 (found by fuzzing: Gmsh asked
+  // for 141 GB).
+  std::string phys = palpate::test::read_text(palpate::test::test_mesh("cube_v4_binary.msh"));
+  phys[phys.find("$Entities\n") + 10 + 84 + 4] = '\x10';
+  const auto physicals = dir.write("physicals.msh", phys);
+  expect_error(palpate::load_tet(physicals), physicals,
+               {"$Entities (binary", "promises 68719476737 physical tags of an entity, more than the file can hold"});
   // Gmsh still reads good files after all of these.
   EXPECT_TRUE(palpate::load_tet(palpate::test::test_mesh("cube_v4.msh")).ok());
+  EXPECT_TRUE(palpate::load_tet(palpate::test::test_mesh("cube_v4_binary.msh")).ok());
 }
 
 // Random bytes, and valid files with random bytes overwritten, under every extension: each

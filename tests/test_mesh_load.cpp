@@ -174,6 +174,22 @@ TEST(MeshLoad, CubeInEveryTetFormat) {
   }
 }
 
+// Files as Gmsh 4.8 writes them with every entity saved and partitioned (tests/data/meshes/
+// make_gmsh41.cpp): empty node blocks, physical points, $PartitionedEntities — none refused by the
+// checks made against damaged files, and each the same unit box.
+TEST(MeshLoad, GmshFilesAsGmshWritesThem) {
+  for (const char* name : {"box_gmsh41_saveall.msh", "box_gmsh41_saveall_binary.msh", "box_gmsh41_partitioned.msh",
+                           "box_gmsh41_partitioned_binary.msh"}) {
+    SCOPED_TRACE(name);
+    const auto m = palpate::load_tet(test_mesh(name));
+    ASSERT_TRUE(m.ok()) << m.error().message;
+    EXPECT_EQ(m->V.rows(), 14);
+    EXPECT_NEAR(palpate::describe(*m).volume, 1.0, 1e-9);
+    EXPECT_NEAR(m->V.minCoeff(), 0.0, 1e-12);
+    EXPECT_NEAR(m->V.maxCoeff(), 1.0, 1e-12);
+  }
+}
+
 TEST(MeshLoad, VtkMixedCellsAndFileVersion51) {
   palpate::test::ScratchDir dir;
   // Legacy 3.0 with float points, several per line, a triangle and a vertex cell that are skipped.

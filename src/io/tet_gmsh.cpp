@@ -15,6 +15,7 @@
 #include <cmath>
 #include <exception>
 #include <fstream>
+#include <limits>
 #include <mutex>
 #include <new>
 #include <numeric>
@@ -166,7 +167,9 @@ Status check_msh4_block_sums(std::string_view body, bool nodes, int line, const 
   for (auto [v, what] : {std::pair{&blocks, "the number of blocks"}, {&total, "the total count"},
                          {&min_tag, "the smallest tag"}, {&max_tag, "the largest tag"}})
     if (Status s = number(*v, what); !s) return s;
-  if (blocks < 0 || total < 0 || min_tag < 0 || max_tag < min_tag || blocks > total + 1)
+  // A block may be empty (Gmsh writes one per entity, with Mesh.SaveAll points and curves that
+  // hold no node of their own), but each takes at least 8 bytes of text.
+  if (blocks < 0 || total < 0 || min_tag < 0 || max_tag < min_tag || blocks > static_cast<long long>(body.size() / 8))
     return error(fmt::format("inconsistent header '{} {} {} {}'", blocks, total, min_tag, max_tag));
   long long sum = 0;
   for (long long b = 0; b < blocks; ++b) {
@@ -234,7 +237,8 @@ Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line,
   };
   const std::uint64_t blocks = u64(), total = u64(), min_tag = u64(), max_tag = u64();
   if (short_read) return error("unexpected end of file in the section header");
-  if (max_tag < min_tag || blocks > total + 1) return error("inconsistent section header");
+  // Empty blocks are allowed (see above); each block's header takes 20 bytes.
+  if (max_tag < min_tag || blocks > body.size() / 20) return error("inconsistent section header");
   std::uint64_t sum = 0;
   for (std::uint64_t b = 0; b < blocks; ++b) {
     const std::int32_t dim = i32(), entity = i32(), kind = i32();
@@ -274,6 +278,101 @@ Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line,
     if (at > body.size()) return error(fmt::format("unexpected end of file in block {}", b));
   }
   if (sum != total) return error(fmt::format("the blocks hold {}, the header promises {}", sum, total));
+  return {};
+}
+
+// Gmsh 4.8's format-4 entity readers size arrays by counts inside each entity before reading what
+// the counts promise: in binary, every entity's physical tags and bounding entities
+// (`std::vector<int>(num)`), and in $PartitionedEntities, text or binary, the ghost entities and
+// each entity's partitions (found by fuzzing: a surface of a 832-byte binary file promising 3.5e10
+// physical tags made Gmsh ask for 141 GB). Walk the section and check each such count against the
+// bytes left. `body` starts on the line after the section's name, which is `line`. Binary: format
+// 4.1's layout (int tags, 8-byte counts, 3 doubles for a point and 6 for a box); a binary 4.0 file
+// is left to Gmsh.
+Status check_msh4_entities(std::string_view body, bool binary, bool partitioned, double version, int line,
+                           const std::string& name) {
+  const char* section = partitioned ? "$PartitionedEntities" : "$Entities";
+  if (binary && version < 4.1) return {};
+  TokenReader in(body, '\0');
+  size_t at = 0;  // binary: the byte within the section
+  const auto where = [&] {
+    return binary ? fmt::format("{}:{}: {} (binary, byte {} of the section)", name, line, section, at)
+                  : fmt::format("{}:{}: {}", name, line + in.line(), section);
+  };
+  const auto left = [&] { return binary ? body.size() - std::min(at, body.size()) : body.size(); };
+  // One integer (binary: an 8-byte count, or a 4-byte int when `is_int`).
+  const auto integer = [&](long long& v, const char* what, bool is_int) -> Status {
+    if (binary) {
+      const size_t n = is_int ? 4 : 8;
+      if (at + n > body.size()) return Error{fmt::format("{}: unexpected end of file, expected {}", where(), what)};
+      if (is_int) {
+        std::int32_t x = 0;
+        std::memcpy(&x, body.data() + at, 4);
+        v = x;
+      } else {
+        std::uint64_t x = 0;
+        std::memcpy(&x, body.data() + at, 8);
+        v = x > static_cast<std::uint64_t>(std::numeric_limits<long long>::max()) ? -1 : static_cast<long long>(x);
+      }
+      at += n;
+      return {};
+    }
+    std::string_view t;
+    if (!in.next(t)) return Error{fmt::format("{}: unexpected end of file, expected {}", where(), what)};
+    if (!parse_int(t, v)) return Error{fmt::format("{}: expected {} (an integer), found '{}'", where(), what, printable(t))};
+    return {};
+  };
+  // A count of `per`-item lists the rest of the section must hold: each item takes at least 4
+  // bytes in binary, 2 in text ("1 ").
+  const auto count = [&](long long& v, const char* what, long long per = 1) -> Status {
+    if (Status st = integer(v, what, false); !st) return st;
+    const double most = static_cast<double>(left()) / (binary ? 4.0 : 2.0) / static_cast<double>(per);
+    if (v < 0 || static_cast<double>(v) > most)
+      return Error{fmt::format("{}: promises {} {}, more than the file can hold", where(),
+                               v < 0 ? "a negative number of" : std::to_string(v), what)};
+    return {};
+  };
+  const auto skip = [&](long long n, bool is_int) -> Status {  // n ints, or n doubles when !is_int
+    if (binary) {
+      const size_t bytes = static_cast<size_t>(n) * (is_int ? 4 : 8);
+      if (at + bytes > body.size()) return Error{fmt::format("{}: unexpected end of file", where())};
+      at += bytes;
+      return {};
+    }
+    for (long long i = 0; i < n; ++i) {
+      std::string_view t;
+      if (!in.next(t)) return Error{fmt::format("{}: unexpected end of file", where())};
+    }
+    return {};
+  };
+  long long v = 0;
+  if (partitioned) {
+    long long partitions = 0, ghosts = 0;
+    if (Status st = integer(partitions, "the number of partitions", false); !st) return st;
+    if (Status st = count(ghosts, "ghost entities", 2); !st) return st;
+    if (Status st = skip(2 * ghosts, true); !st) return st;
+  }
+  long long entities[4] = {0, 0, 0, 0};
+  constexpr const char* kinds[4] = {"points", "curves", "surfaces", "volumes"};
+  for (int d = 0; d < 4; ++d)
+    if (Status st = count(entities[d], kinds[d]); !st) return st;
+  for (int d = 0; d < 4; ++d)
+    for (long long e = 0; e < entities[d]; ++e) {
+      if (Status st = integer(v, "an entity tag", true); !st) return st;
+      if (partitioned) {
+        if (Status st = skip(2, true); !st) return st;  // parent dimension and tag
+        if (Status st = count(v, "partitions of an entity"); !st) return st;
+        if (Status st = skip(v, true); !st) return st;
+      }
+      // A point's coordinates (format 4.1) or an entity's box.
+      if (Status st = skip(d == 0 && (binary || version >= 4.1) ? 3 : 6, false); !st) return st;
+      if (Status st = count(v, "physical tags of an entity"); !st) return st;
+      if (Status st = skip(v, true); !st) return st;
+      if (d > 0) {
+        if (Status st = count(v, "bounding entities of an entity"); !st) return st;
+        if (Status st = skip(v, true); !st) return st;
+      }
+    }
   return {};
 }
 
@@ -330,16 +429,22 @@ Status check_msh_counts(const std::filesystem::path& file) {
     }
     const bool nodes = header == "$Nodes" || header == "$NOD" || header == "$NOE";
     const bool elements = header == "$Elements" || header == "$ELM";
-    if (header == "$Entities" && version >= 4 && end < bytes) {
+    if ((header == "$Entities" || header == "$PartitionedEntities") && version >= 4 && end < bytes) {
       // Four counts (points, curves, surfaces, volumes) Gmsh sizes its entity tables by (found by
-      // fuzzing: a binary count of 1.3e19 points made it allocate exabytes).
-      double v[4];
-      const int n = section_counts(t, end + 1, binary != 0, v);
-      constexpr const char* kinds[4] = {"points", "curves", "surfaces", "volumes"};
-      for (int k = 0; k < n; ++k)
-        if (!(v[k] >= 0 && v[k] <= max_count))
-          return Error{fmt::format("{}:{}: $Entities promises {:.0f} {}, more than the file can hold", name, line + 1,
-                                   v[k], kinds[k])};
+      // fuzzing: a binary count of 1.3e19 points made it allocate exabytes), then each entity's.
+      if (header == "$Entities") {
+        double v[4];
+        const int n = section_counts(t, end + 1, binary != 0, v);
+        constexpr const char* kinds[4] = {"points", "curves", "surfaces", "volumes"};
+        for (int k = 0; k < n; ++k)
+          if (!(v[k] >= 0 && v[k] <= max_count))
+            return Error{fmt::format("{}:{}: $Entities promises {:.0f} {}, more than the file can hold", name, line + 1,
+                                     v[k], kinds[k])};
+      }
+      if (Status s = check_msh4_entities(std::string_view(t).substr(end + 1), binary != 0,
+                                         header == "$PartitionedEntities", version, line, name);
+          !s)
+        return s;
     }
     if ((nodes || elements) && end < bytes) {
       // v4: blocks, count, min tag, max tag; older: the count first.
