@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <initializer_list>
 #include <limits>
 #include <random>
@@ -307,6 +308,22 @@ TEST(MeshErrors, GmshFilesThatWouldCrashGmsh) {
   const auto physicals = dir.write("physicals.msh", phys);
   expect_error(palpate::load_tet(physicals), physicals,
                {"$Entities (binary", "promises 68719476737 physical tags of an entity, more than the file can hold"});
+  // Format 2, binary (the fuzz seed): an element block promising 2·10^9 tags per element (Gmsh
+  // asked for 7.8 GB), and an element count that is not a number (found by fuzzing: '+').
+  const std::string v2b = palpate::test::read_text(PALPATE_SOURCE_DIR "/fuzz/corpus/fuzz_gmsh/cube_v2_binary.msh");
+  ASSERT_TRUE(palpate::load_tet(dir.write("v2b.msh", v2b)).ok());
+  std::string huge_tags = v2b;
+  const size_t block = huge_tags.find("$Elements\n5\n") + 12;
+  const std::int32_t two_billion = 2000000000;
+  std::memcpy(huge_tags.data() + block + 8, &two_billion, 4);
+  const auto tags2 = dir.write("tags2.msh", huge_tags);
+  expect_error(palpate::load_tet(tags2), tags2,
+               {"$Elements (binary, byte 12 of the section): block 0 (5 elements of type 4 with 2000000000 tags "
+                "each) does not fit the file or the total of 5"});
+  std::string plus = v2b;
+  plus.replace(plus.find("$Elements\n5\n"), 12, "$Elements\n+\n");
+  const auto no_count = dir.write("plus.msh", plus);
+  expect_error(palpate::load_tet(no_count), no_count, {"expected the number of elements after $Elements"});
   // Gmsh still reads good files after all of these.
   EXPECT_TRUE(palpate::load_tet(palpate::test::test_mesh("cube_v4.msh")).ok());
   EXPECT_TRUE(palpate::load_tet(palpate::test::test_mesh("cube_v4_binary.msh")).ok());

@@ -211,6 +211,9 @@ Status check_msh4_block_sums(std::string_view body, bool nodes, int line, const 
   return {};
 }
 
+// Nodes of each Gmsh element type up to 15 (the types Gmsh 4.8 writes for meshes of order ≤ 2).
+constexpr int kNodesOfType[] = {0, 2, 3, 4, 4, 8, 6, 5, 3, 6, 9, 10, 27, 18, 14, 1};
+
 // The same check for binary format 4 (little-endian, 8-byte size_t, 4-byte int), where each
 // element's node count comes from its type: types Gmsh 4.8 writes for meshes of order ≤ 2.
 Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line, const std::string& name,
@@ -258,7 +261,6 @@ Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line,
       }
       at += count * 8 * static_cast<std::uint64_t>(3 + (kind ? dim : 0));
     } else {
-      static constexpr int kNodesOfType[] = {0, 2, 3, 4, 4, 8, 6, 5, 3, 6, 9, 10, 27, 18, 14, 1};
       if (kind < 1 || kind > 15) return error(fmt::format("block {}: element type {} is not read", b, kind));
       for (std::uint64_t i = 0; i < count; ++i) {
         const std::uint64_t tag = u64();
@@ -278,6 +280,36 @@ Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line,
     if (at > body.size()) return error(fmt::format("unexpected end of file in block {}", b));
   }
   if (sum != total) return error(fmt::format("the blocks hold {}, the header promises {}", sum, total));
+  return {};
+}
+
+// Format 2's binary $Elements: blocks of a header (type, elements that follow, tags per element)
+// and then each element's number, tags and nodes, all 4-byte ints. Gmsh 4.8 allocates a block's
+// element (1 + tags + nodes ints) from the header before reading it (found by fuzzing: a header
+// promising 2e9 tags made it ask for 7.8 GB). Check each header against the bytes left and the
+// blocks against the promised total. `body` starts after the count's line, which is `line`.
+Status check_msh2_binary_elements(std::string_view body, long long total, int line, const std::string& name) {
+  size_t at = 0;
+  const auto error = [&](const std::string& what) {
+    return Error{fmt::format("{}:{}: $Elements (binary, byte {} of the section): {}", name, line, at, what)};
+  };
+  long long sum = 0;
+  for (long long b = 0; sum < total; ++b) {
+    if (at + 12 > body.size()) return error(fmt::format("unexpected end of file in block {}", b));
+    std::int32_t header[3];
+    std::memcpy(header, body.data() + at, 12);
+    at += 12;
+    const std::int32_t type = header[0], count = header[1], tags = header[2];
+    if (type < 1 || type > 15) return error(fmt::format("block {}: element type {} is not read", b, type));
+    const long long ints = 1LL + tags + kNodesOfType[type];
+    if (count < 1 || tags < 0 || count > total - sum ||
+        static_cast<double>(count) * static_cast<double>(ints) * 4.0 > static_cast<double>(body.size() - at))
+      return error(fmt::format("block {} ({} elements of type {} with {} tags each) does not fit the file or the "
+                               "total of {}",
+                               b, count, type, tags, total));
+    at += static_cast<size_t>(count) * static_cast<size_t>(ints) * 4;
+    sum += count;
+  }
   return {};
 }
 
@@ -450,6 +482,9 @@ Status check_msh_counts(const std::filesystem::path& file) {
       // v4: blocks, count, min tag, max tag; older: the count first.
       double v[4];
       const int n = section_counts(t, end + 1, version >= 4 && binary, v);
+      if (n < 1)  // Gmsh reads on with whatever count it has then (found by fuzzing: '+')
+        return Error{fmt::format("{}:{}: expected the number of {} after {}", name, line + 1,
+                                 nodes ? "nodes" : "elements", header)};
       const double count = version >= 4 ? v[1] : v[0];
       if (n >= 1 && (count < 0 || count > max_count))
         return Error{fmt::format("{}:{}: {} promises {:.0f} {}, more than the file can hold", name, line + 1, header,
@@ -457,6 +492,14 @@ Status check_msh_counts(const std::filesystem::path& file) {
       if (version >= 4 && n == 4 && (v[3] > max_tag || v[2] < 0))
         return Error{fmt::format("{}:{}: {} tags run up to {:.0f}, far beyond the file's size (expected at most {:.0f})",
                                  name, line + 1, header, v[3], max_tag)};
+      if (elements && binary && version < 3) {
+        const size_t body_at = t.find('\n', end + 1);  // after the count's line
+        if (body_at != std::string::npos && v[0] == std::floor(v[0]))
+          if (Status s = check_msh2_binary_elements(std::string_view(t).substr(body_at + 1),
+                                                    static_cast<long long>(v[0]), line + 1, name);
+              !s)
+            return s;
+      }
       if (version >= 4) {
         const std::string_view body = std::string_view(t).substr(end + 1);
         if (nodes && n == 4) {
