@@ -324,6 +324,13 @@ TEST(MeshErrors, GmshFilesThatWouldCrashGmsh) {
   plus.replace(plus.find("$Elements\n5\n"), 12, "$Elements\n+\n");
   const auto no_count = dir.write("plus.msh", plus);
   expect_error(palpate::load_tet(no_count), no_count, {"expected the number of elements after $Elements"});
+  // Binary with its byte-order check damaged (Gmsh then byte-swaps every count; found by fuzzing).
+  std::string order = palpate::test::read_text(palpate::test::test_mesh("cube_v4_binary.msh"));
+  order[order.find("4.1 1 8\n") + 10] = '\xff';
+  const auto swapped = dir.write("swapped.msh", order);
+  EXPECT_EQ(palpate::load_tet(swapped).error().message,
+            swapped.string() + ":3: binary mesh whose byte-order check reads 16711681 (expected the int 1: a "
+                               "big-endian or damaged file; palpate reads little-endian binary meshes)");
   // Gmsh still reads good files after all of these.
   EXPECT_TRUE(palpate::load_tet(palpate::test::test_mesh("cube_v4.msh")).ok());
   EXPECT_TRUE(palpate::load_tet(palpate::test::test_mesh("cube_v4_binary.msh")).ok());
