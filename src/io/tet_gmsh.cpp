@@ -283,32 +283,112 @@ Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line,
   return {};
 }
 
-// Format 2's binary $Elements: blocks of a header (type, elements that follow, tags per element)
-// and then each element's number, tags and nodes, all 4-byte ints. Gmsh 4.8 allocates a block's
-// element (1 + tags + nodes ints) from the header before reading it (found by fuzzing: a header
-// promising 2e9 tags made it ask for 7.8 GB). Check each header against the bytes left and the
-// blocks against the promised total. `body` starts after the count's line, which is `line`.
-Status check_msh2_binary_elements(std::string_view body, long long total, int line, const std::string& name) {
-  size_t at = 0;
+// Formats 1 and 2 ($NOD/$ELM, $Nodes/$Elements before format 4): Gmsh 4.8 builds the elements
+// from whatever node numbers they name, and dereferences a null node for a number that no node
+// has (found by fuzzing: a format-4 body under a "2.2" header crashed `palpate info`), and in
+// binary it allocates each block's element (1 + tags + nodes ints) from the block's header before
+// reading it (a header promising 2e9 tags made it ask for 7.8 GB). So read both sections as Gmsh
+// will: every node's number, then every element's type, tags and nodes, each node one the $Nodes
+// section defines. `nodes_at`/`elements_at`: the byte after each section's count line; `*_line`:
+// the count's line.
+Status check_msh12_elements(const std::string& t, size_t nodes_at, long long node_count, int nodes_line,
+                            size_t elements_at, long long element_count, int elements_line, bool binary,
+                            double version, const std::string& name) {
+  const char* nodes_name = version < 2 ? "$NOD" : "$Nodes";
+  const char* elements_name = version < 2 ? "$ELM" : "$Elements";
+  std::vector<long long> ids;
+  ids.reserve(static_cast<size_t>(node_count));
+  if (binary) {  // format 2: each node an int and three doubles
+    if (nodes_at + static_cast<size_t>(node_count) * 28 > t.size())
+      return Error{fmt::format("{}:{}: {} (binary): unexpected end of file in the nodes", name, nodes_line, nodes_name)};
+    for (long long i = 0; i < node_count; ++i) {
+      std::int32_t id = 0;
+      std::memcpy(&id, t.data() + nodes_at + 28 * static_cast<size_t>(i), 4);
+      ids.push_back(id);
+    }
+  } else {
+    TokenReader in(std::string_view(t).substr(nodes_at), '\0');
+    for (long long i = 0; i < node_count; ++i) {
+      std::string_view tok;
+      long long id = 0;
+      double x = 0;
+      if (!in.next(tok) || !parse_int(tok, id))
+        return Error{fmt::format("{}:{}: {}: expected node {} of {} (its number, then x y z)", name,
+                                 nodes_line + in.line(), nodes_name, i + 1, node_count)};
+      for (int c = 0; c < 3; ++c)
+        if (!in.next(tok) || !parse_double(tok, x))
+          return Error{fmt::format("{}:{}: {}: expected the coordinates of node {}", name, nodes_line + in.line(),
+                                   nodes_name, id)};
+      ids.push_back(id);
+    }
+  }
+  std::sort(ids.begin(), ids.end());
+  const auto defined = [&](long long n) { return std::binary_search(ids.begin(), ids.end(), n); };
+  if (binary) {
+    const std::string_view body = std::string_view(t).substr(elements_at);
+    size_t at = 0;
+    const auto error = [&](const std::string& what) {
+      return Error{fmt::format("{}:{}: $Elements (binary, byte {} of the section): {}", name, elements_line, at, what)};
+    };
+    long long sum = 0;
+    for (long long b = 0; sum < element_count; ++b) {
+      if (at + 12 > body.size()) return error(fmt::format("unexpected end of file in block {}", b));
+      std::int32_t header[3];
+      std::memcpy(header, body.data() + at, 12);
+      at += 12;
+      const std::int32_t type = header[0], count = header[1], tags = header[2];
+      if (type < 1 || type > 15) return error(fmt::format("block {}: element type {} is not read", b, type));
+      const long long ints = 1LL + tags + kNodesOfType[type];
+      if (count < 1 || tags < 0 || count > element_count - sum ||
+          static_cast<double>(count) * static_cast<double>(ints) * 4.0 > static_cast<double>(body.size() - at))
+        return error(fmt::format("block {} ({} elements of type {} with {} tags each) does not fit the file or the "
+                                 "total of {}",
+                                 b, count, type, tags, element_count));
+      for (std::int32_t e = 0; e < count; ++e) {
+        std::int32_t number = 0;
+        std::memcpy(&number, body.data() + at, 4);
+        const size_t nodes = at + 4 * (1 + static_cast<size_t>(tags));
+        for (int k = 0; k < kNodesOfType[type]; ++k) {
+          std::int32_t node = 0;
+          std::memcpy(&node, body.data() + nodes + 4 * static_cast<size_t>(k), 4);
+          if (!defined(node)) return error(fmt::format("element {} names node {}, which $Nodes does not define", number, node));
+        }
+        at += static_cast<size_t>(ints) * 4;
+      }
+      sum += count;
+    }
+    return {};
+  }
+  TokenReader in(std::string_view(t).substr(elements_at), '\0');
   const auto error = [&](const std::string& what) {
-    return Error{fmt::format("{}:{}: $Elements (binary, byte {} of the section): {}", name, line, at, what)};
+    return Error{fmt::format("{}:{}: {}: {}", name, elements_line + in.line(), elements_name, what)};
   };
-  long long sum = 0;
-  for (long long b = 0; sum < total; ++b) {
-    if (at + 12 > body.size()) return error(fmt::format("unexpected end of file in block {}", b));
-    std::int32_t header[3];
-    std::memcpy(header, body.data() + at, 12);
-    at += 12;
-    const std::int32_t type = header[0], count = header[1], tags = header[2];
-    if (type < 1 || type > 15) return error(fmt::format("block {}: element type {} is not read", b, type));
-    const long long ints = 1LL + tags + kNodesOfType[type];
-    if (count < 1 || tags < 0 || count > total - sum ||
-        static_cast<double>(count) * static_cast<double>(ints) * 4.0 > static_cast<double>(body.size() - at))
-      return error(fmt::format("block {} ({} elements of type {} with {} tags each) does not fit the file or the "
-                               "total of {}",
-                               b, count, type, tags, total));
-    at += static_cast<size_t>(count) * static_cast<size_t>(ints) * 4;
-    sum += count;
+  for (long long i = 0; i < element_count; ++i) {
+    // Format 2: number, type, tag count, tags, nodes. Format 1: number, type, two region tags,
+    // node count, nodes.
+    long long head[5] = {0, 0, 0, 0, 0};
+    const int fields = version < 2 ? 5 : 3;
+    for (int k = 0; k < fields; ++k) {
+      std::string_view tok;
+      if (!in.next(tok) || !parse_int(tok, head[k]))
+        return error(fmt::format("expected element {} of {} (number, type, {})", i + 1, element_count,
+                                 version < 2 ? "regions, node count, nodes" : "tags, nodes"));
+    }
+    const long long type = head[1];
+    if (type < 1 || type > 15) return error(fmt::format("element {}: type {} is not read", head[0], type));
+    const long long tags = version < 2 ? 0 : head[2];
+    const long long nodes = version < 2 ? head[4] : kNodesOfType[type];
+    if (tags < 0 || tags > 64 || nodes != kNodesOfType[type])
+      return error(fmt::format("element {}: {} tags and {} nodes for type {} (expected {} nodes)", head[0], tags, nodes,
+                               type, kNodesOfType[type]));
+    for (long long k = 0; k < tags + nodes; ++k) {
+      std::string_view tok;
+      long long v = 0;
+      if (!in.next(tok) || !parse_int(tok, v))
+        return error(fmt::format("element {}: expected {} integers after its type", head[0], tags + nodes));
+      if (k >= tags && !defined(v))
+        return error(fmt::format("element {} names node {}, which {} does not define", head[0], v, nodes_name));
+    }
   }
   return {};
 }
@@ -459,6 +539,11 @@ Status check_msh_counts(const std::filesystem::path& file) {
   const double max_count = static_cast<double>(bytes) / 4.0 + 16;
   const double max_tag = std::max(1e6, 64.0 * static_cast<double>(bytes));
   std::uint64_t node_min = 0, node_max = 0;  // tag range of $Nodes, for the elements' nodes
+  struct OldSection {
+    size_t at = std::string::npos;  // the byte after the count's line
+    long long count = 0;
+    int line = 0;  // the count's line
+  } old_nodes, old_elements;  // formats 1 and 2
   int line = 1;
   size_t pos = 0;
   while (pos < bytes) {
@@ -506,13 +591,11 @@ Status check_msh_counts(const std::filesystem::path& file) {
       if (version >= 4 && n == 4 && (v[3] > max_tag || v[2] < 0))
         return Error{fmt::format("{}:{}: {} tags run up to {:.0f}, far beyond the file's size (expected at most {:.0f})",
                                  name, line + 1, header, v[3], max_tag)};
-      if (elements && binary && version < 3) {
-        const size_t body_at = t.find('\n', end + 1);  // after the count's line
-        if (body_at != std::string::npos && v[0] == std::floor(v[0]))
-          if (Status s = check_msh2_binary_elements(std::string_view(t).substr(body_at + 1),
-                                                    static_cast<long long>(v[0]), line + 1, name);
-              !s)
-            return s;
+      if (version < 4) {  // formats 1 and 2: where the section's items start, for after the loop
+        const size_t items = t.find('\n', end + 1);
+        if (items != std::string::npos && v[0] == std::floor(v[0])) {
+          (nodes ? old_nodes : old_elements) = {items + 1, static_cast<long long>(v[0]), line + 1};
+        }
       }
       if (version >= 4) {
         const std::string_view body = std::string_view(t).substr(end + 1);
@@ -536,6 +619,9 @@ Status check_msh_counts(const std::filesystem::path& file) {
       pos = next + 1;
     }
   }
+  if (version < 4 && old_nodes.at != std::string::npos && old_elements.at != std::string::npos)
+    return check_msh12_elements(t, old_nodes.at, old_nodes.count, old_nodes.line, old_elements.at, old_elements.count,
+                                old_elements.line, binary != 0, version, name);
   return {};
 }
 
