@@ -339,6 +339,33 @@ TEST(MeshErrors, GmshFilesThatWouldCrashGmsh) {
   EXPECT_EQ(palpate::load_tet(swapped).error().message,
             swapped.string() + ":3: binary mesh whose byte-order check reads 16711681 (expected the int 1: a "
                                "big-endian or damaged file; palpate reads little-endian binary meshes)");
+  // Formats 1 and 2 are walked as Gmsh's fgets finds their sections (found by fuzzing: binary data
+  // ending in "\n\xa5$Nodes" hid an element block palpate's line scan passed over and Gmsh read,
+  // asking for 2.16 GB; tests/data/fuzz-regressions/fuzz_gmsh/damaged-section-lines.msh). Gmsh
+  // takes a section by its name's prefix, and a line longer than 255 bytes as several: an element
+  // naming a node no $Nodes defines is found behind either.
+  const std::string v2 = palpate::test::read_text(palpate::test::test_mesh("cube_v2.msh"));
+  ASSERT_TRUE(palpate::load_tet(dir.write("v2.msh", v2)).ok());
+  const auto v2_with = [&](const std::string& name, const std::string& elements_line) {
+    std::string text = v2;
+    text.replace(text.find("$Elements\n"), 10, elements_line);
+    text.replace(text.find("7 4 2 2 1 7 3 8 5"), 17, "7 4 2 2 1 7 3 8 99");
+    return dir.write(name, text);
+  };
+  const auto prefix = v2_with("prefix.msh", "$ElementsOfTheCube\n");
+  EXPECT_EQ(palpate::load_tet(prefix).error().message,
+            prefix.string() + ":23: $ElementsOfTheCube: element 7 names node 99, which $Nodes does not define");
+  const auto long_line = v2_with("long_line.msh", std::string(255, '#') + "$Elements\n");
+  EXPECT_EQ(palpate::load_tet(long_line).error().message,
+            long_line.string() + ":23: $Elements: element 7 names node 99, which $Nodes does not define");
+  // MSH3 and post-processing views are refused, not guessed at.
+  const auto msh3 = dir.write("msh3.msh", std::string(v2).replace(v2.find("2.2 0 8"), 7, "3 0 8"));
+  expect_error(palpate::load_tet(msh3), msh3, {"Gmsh mesh format 3 (MSH3) is not read; save the mesh in format 4.1 or 2.2"});
+  const auto view = dir.write("view.msh", v2 + "$NodeData\n1\n\"u\"\n$EndNodeData\n");
+  EXPECT_EQ(palpate::load_tet(view).error().message,
+            view.string() + ":25: $NodeData: post-processing data is not read; save the mesh without it");
+  const auto view4 = dir.write("view4.msh", v4 + "$ElementData\n1\n\"u\"\n$EndElementData\n");
+  expect_error(palpate::load_tet(view4), view4, {"$ElementData: post-processing data is not read; save the mesh without it"});
   // Gmsh still reads good files after all of these.
   EXPECT_TRUE(palpate::load_tet(palpate::test::test_mesh("cube_v4.msh")).ok());
   EXPECT_TRUE(palpate::load_tet(palpate::test::test_mesh("cube_v4_binary.msh")).ok());

@@ -214,26 +214,34 @@ Status check_msh4_block_sums(std::string_view body, bool nodes, int line, const 
 // Nodes of each Gmsh element type up to 15 (the types Gmsh 4.8 writes for meshes of order ≤ 2).
 constexpr int kNodesOfType[] = {0, 2, 3, 4, 4, 8, 6, 5, 3, 6, 9, 10, 27, 18, 14, 1};
 
+// Little-endian values off a binary section, as Gmsh writes them on every machine it ships for.
+// A read past the end gives 0, sets `short_read` and still advances, so a walk checks once after
+// several reads.
+struct ByteCursor {
+  std::string_view bytes;
+  size_t at = 0;
+  bool short_read = false;
+  template <class T>
+  T get() {
+    T v{};
+    if (!fits(sizeof(T))) short_read = true;
+    else std::memcpy(&v, bytes.data() + at, sizeof(T));
+    at += sizeof(T);
+    return v;
+  }
+  size_t left() const { return bytes.size() - std::min(at, bytes.size()); }
+  bool fits(size_t n) const { return at <= bytes.size() && n <= left(); }
+};
+
 // The same check for binary format 4 (little-endian, 8-byte size_t, 4-byte int), where each
 // element's node count comes from its type: types Gmsh 4.8 writes for meshes of order ≤ 2.
 Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line, const std::string& name,
                                     std::uint64_t node_min, std::uint64_t node_max) {
-  size_t at = 0;
-  bool short_read = false;
-  const auto u64 = [&]() -> std::uint64_t {
-    std::uint64_t v = 0;
-    if (at + 8 > body.size()) short_read = true;
-    else std::memcpy(&v, body.data() + at, 8);
-    at += 8;
-    return v;
-  };
-  const auto i32 = [&]() -> std::int32_t {
-    std::int32_t v = 0;
-    if (at + 4 > body.size()) short_read = true;
-    else std::memcpy(&v, body.data() + at, 4);
-    at += 4;
-    return v;
-  };
+  ByteCursor in{body};
+  size_t& at = in.at;
+  const bool& short_read = in.short_read;
+  const auto u64 = [&] { return in.get<std::uint64_t>(); };
+  const auto i32 = [&] { return in.get<std::int32_t>(); };
   const auto error = [&](const std::string& what) {
     return Error{fmt::format("{}:{}: {} (binary, byte {} of the section): {}", name, line, nodes ? "$Nodes" : "$Elements",
                              at, what)};
@@ -283,112 +291,274 @@ Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line,
   return {};
 }
 
-// Formats 1 and 2 ($NOD/$ELM, $Nodes/$Elements before format 4): Gmsh 4.8 builds the elements
-// from whatever node numbers they name, and dereferences a null node for a number that no node
-// has (found by fuzzing: a format-4 body under a "2.2" header crashed `palpate info`), and in
-// binary it allocates each block's element (1 + tags + nodes ints) from the block's header before
-// reading it (a header promising 2e9 tags made it ask for 7.8 GB). So read both sections as Gmsh
-// will: every node's number, then every element's type, tags and nodes, each node one the $Nodes
-// section defines. `nodes_at`/`elements_at`: the byte after each section's count line; `*_line`:
-// the count's line.
-Status check_msh12_elements(const std::string& t, size_t nodes_at, long long node_count, int nodes_line,
-                            size_t elements_at, long long element_count, int elements_line, bool binary,
-                            double version, const std::string& name) {
-  const char* nodes_name = version < 2 ? "$NOD" : "$Nodes";
-  const char* elements_name = version < 2 ? "$ELM" : "$Elements";
-  std::vector<long long> ids;
-  ids.reserve(static_cast<size_t>(node_count));
-  if (binary) {  // format 2: each node an int and three doubles
-    if (nodes_at + static_cast<size_t>(node_count) * 28 > t.size())
-      return Error{fmt::format("{}:{}: {} (binary): unexpected end of file in the nodes", name, nodes_line, nodes_name)};
-    for (long long i = 0; i < node_count; ++i) {
-      std::int32_t id = 0;
-      std::memcpy(&id, t.data() + nodes_at + 28 * static_cast<size_t>(i), 4);
-      ids.push_back(id);
-    }
-  } else {
-    TokenReader in(std::string_view(t).substr(nodes_at), '\0');
-    for (long long i = 0; i < node_count; ++i) {
-      std::string_view tok;
-      long long id = 0;
-      double x = 0;
-      if (!in.next(tok) || !parse_int(tok, id))
-        return Error{fmt::format("{}:{}: {}: expected node {} of {} (its number, then x y z)", name,
-                                 nodes_line + in.line(), nodes_name, i + 1, node_count)};
-      for (int c = 0; c < 3; ++c)
-        if (!in.next(tok) || !parse_double(tok, x))
-          return Error{fmt::format("{}:{}: {}: expected the coordinates of node {}", name, nodes_line + in.line(),
-                                   nodes_name, id)};
-      ids.push_back(id);
-    }
-  }
-  std::sort(ids.begin(), ids.end());
-  const auto defined = [&](long long n) { return std::binary_search(ids.begin(), ids.end(), n); };
-  if (binary) {
-    const std::string_view body = std::string_view(t).substr(elements_at);
-    size_t at = 0;
-    const auto error = [&](const std::string& what) {
-      return Error{fmt::format("{}:{}: $Elements (binary, byte {} of the section): {}", name, elements_line, at, what)};
-    };
-    long long sum = 0;
-    for (long long b = 0; sum < element_count; ++b) {
-      if (at + 12 > body.size()) return error(fmt::format("unexpected end of file in block {}", b));
-      std::int32_t header[3];
-      std::memcpy(header, body.data() + at, 12);
-      at += 12;
-      const std::int32_t type = header[0], count = header[1], tags = header[2];
-      if (type < 1 || type > 15) return error(fmt::format("block {}: element type {} is not read", b, type));
-      const long long ints = 1LL + tags + kNodesOfType[type];
-      if (count < 1 || tags < 0 || count > element_count - sum ||
-          static_cast<double>(count) * static_cast<double>(ints) * 4.0 > static_cast<double>(body.size() - at))
-        return error(fmt::format("block {} ({} elements of type {} with {} tags each) does not fit the file or the "
-                                 "total of {}",
-                                 b, count, type, tags, element_count));
-      for (std::int32_t e = 0; e < count; ++e) {
-        std::int32_t number = 0;
-        std::memcpy(&number, body.data() + at, 4);
-        const size_t nodes = at + 4 * (1 + static_cast<size_t>(tags));
-        for (int k = 0; k < kNodesOfType[type]; ++k) {
-          std::int32_t node = 0;
-          std::memcpy(&node, body.data() + nodes + 4 * static_cast<size_t>(k), 4);
-          if (!defined(node)) return error(fmt::format("element {} names node {}, which $Nodes does not define", number, node));
-        }
-        at += static_cast<size_t>(ints) * 4;
+// C stdio over the file's bytes, as Gmsh's readers use it: fgets into their 256-byte buffer,
+// fread, and fscanf's %d and %lf. A walk with it stays where Gmsh's reading is. A number is taken
+// only when its whole whitespace-delimited token is one: fscanf would stop inside "1.5x" and read
+// on from there, so such a token is refused and every accepted file is read the same by both.
+class StdioWalk {
+ public:
+  explicit StdioWalk(std::string_view t) : t_(t) {}
+  // fgets(str, 256, fp): up to 255 bytes, through the first '\n'; false (str unchanged) at the end.
+  bool gets(std::string& str) {
+    size_t n = 0;
+    while (n < 255) {
+      if (at_ + n >= t_.size()) {
+        eof_ = true;
+        break;
       }
-      sum += count;
+      if (t_[at_ + n++] == '\n') break;
     }
-    return {};
+    if (n == 0) return false;
+    line_at_ = at_;
+    str.assign(t_.substr(at_, n));
+    at_ += n;
+    return true;
   }
-  TokenReader in(std::string_view(t).substr(elements_at), '\0');
-  const auto error = [&](const std::string& what) {
-    return Error{fmt::format("{}:{}: {}: {}", name, elements_line + in.line(), elements_name, what)};
+  bool read(void* out, size_t n) {  // fread
+    if (n > t_.size() - at_) {
+      at_ = t_.size();
+      eof_ = true;
+      return false;
+    }
+    std::memcpy(out, t_.data() + at_, n);
+    at_ += n;
+    return true;
+  }
+  bool scan_int(long long& v) {  // fscanf(fp, "%d")
+    std::string_view tok;
+    return token(tok) && parse_int(tok, v) && v >= std::numeric_limits<std::int32_t>::min() &&
+           v <= std::numeric_limits<std::int32_t>::max();
+  }
+  bool scan_double(double& v) {  // fscanf(fp, "%lf")
+    std::string_view tok;
+    return token(tok) && parse_double(tok, v);
+  }
+  bool eof() const { return eof_; }
+  size_t at() const { return at_; }
+  // The line of the last fgets, and of the last token (or where a missing one was looked for).
+  int gets_line() const { return line_of(line_at_); }
+  int token_line() const { return line_of(token_at_); }
+
+ private:
+  static bool c_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r'; }
+  int line_of(size_t at) const {
+    return 1 + static_cast<int>(std::count(t_.begin(), t_.begin() + static_cast<std::ptrdiff_t>(std::min(at, t_.size())), '\n'));
+  }
+  bool token(std::string_view& tok) {
+    while (at_ < t_.size() && c_space(t_[at_])) ++at_;
+    token_at_ = at_;
+    while (at_ < t_.size() && !c_space(t_[at_])) ++at_;
+    if (at_ == t_.size()) eof_ = true;  // fscanf looked past the end for the token's end
+    tok = t_.substr(token_at_, at_ - token_at_);
+    return !tok.empty();
+  }
+  std::string_view t_;
+  size_t at_ = 0, line_at_ = 0, token_at_ = 0;
+  bool eof_ = false;
+};
+
+// What Gmsh sees of fgets' buffer: `&str[1]` as a C string (to its first NUL byte).
+std::string_view after_first(const std::string& str) {
+  if (str.size() < 2) return {};
+  const std::string_view rest = std::string_view(str).substr(1);
+  return rest.substr(0, rest.find('\0'));
+}
+bool starts(std::string_view s, std::string_view prefix) { return s.substr(0, prefix.size()) == prefix; }
+
+// A section's name for messages: '$' and the name up to its line's end.
+std::string section_shown(std::string_view name) {
+  while (!name.empty() && (name.back() == '\n' || name.back() == '\r' || name.back() == ' ')) name.remove_suffix(1);
+  return "$" + printable(name);
+}
+
+// The format version Gmsh 4.8 reads a file as (GModel::readMSH): 1 for a file whose first line
+// opens $NOD or $NOE, otherwise the first number after the first section named $MeshFormat...;
+// `binary`: its file type. False when Gmsh would find no version.
+bool gmsh_version(std::string_view t, double& version, bool& binary, int& data_size) {
+  StdioWalk f(t);
+  std::string str;
+  version = 1.0;
+  binary = false;
+  data_size = 8;
+  if (!f.gets(str)) return false;
+  if (starts(after_first(str), "NOD") || starts(after_first(str), "NOE")) return true;
+  StdioWalk again(t);
+  str.clear();
+  while (true) {
+    while (str.empty() || str[0] != '$')
+      if (!again.gets(str) || again.eof()) break;
+    if (again.eof()) return false;
+    if (starts(after_first(str), "MeshFormat")) {
+      int format = 0;
+      if (!again.gets(str) || std::sscanf(str.c_str(), "%lf %d %d", &version, &format, &data_size) != 3) return false;
+      binary = format != 0;
+      return true;
+    }
+    do {
+      if (!again.gets(str) || again.eof()) break;
+    } while (str[0] != '$');
+  }
+}
+
+// Formats 1 and 2: the file read as Gmsh 4.8's reader for them (GModel::_readMSH2) reads it,
+// section by section: a line is a section when its first byte is '$', named by prefix ("$Nodesx"
+// is $Nodes), found by fgets' 255-byte reads right through binary data; after what a section's
+// reader read, the next line opening with '$' (its end, normally) is read as a section. Checked on
+// the way, before Gmsh reads any of it: every count against the file's size; every element's type
+// (1..15), tags and nodes, each node one the last $Nodes section defines (Gmsh dereferenced a null
+// node for one no node has: a format-4 body under a "2.2" header crashed `palpate info`); in binary,
+// each element block's header against the bytes left (Gmsh allocates each block's element, 1 +
+// tags + nodes ints, by the header: 2e9 tags made it ask for 7.8 GB), and the byte-order int. All
+// found by fuzzing, the last by a damaged "\xa5$Nodes" line palpate's old line scan passed over
+// while Gmsh's fgets found an element block behind it and asked for 2.16 GB.
+Status check_msh2(const std::string& t, double max_count, const std::string& name) {
+  StdioWalk f(t);
+  std::string str = "x";  // Gmsh's fgets buffer
+  double version = 1.0;
+  bool binary = false;
+  std::vector<long long> ids;  // the node numbers of the last $Nodes section, sorted
+  std::string nodes_name = "$Nodes";
+  const auto error = [&](int line, const std::string& what) { return Error{fmt::format("{}:{}: {}", name, line, what)}; };
+  // A count on the line after a section's name (Gmsh: fgets, then sscanf "%d").
+  const auto count = [&](const std::string& shown, const char* what, long long& n) -> Status {
+    const int line = f.gets_line() + 1;
+    if (!f.gets(str) || std::sscanf(str.c_str(), "%lld", &n) != 1)  // Gmsh reads on with whatever it has then
+      return error(line, fmt::format("expected the number of {} after {}", what, shown));
+    if (n < 0 || static_cast<double>(n) > max_count)
+      return error(line, fmt::format("{} promises {} {}, more than the file can hold", shown, n, what));
+    return {};
   };
-  for (long long i = 0; i < element_count; ++i) {
-    // Format 2: number, type, tag count, tags, nodes. Format 1: number, type, two region tags,
-    // node count, nodes.
-    long long head[5] = {0, 0, 0, 0, 0};
-    const int fields = version < 2 ? 5 : 3;
-    for (int k = 0; k < fields; ++k) {
-      std::string_view tok;
-      if (!in.next(tok) || !parse_int(tok, head[k]))
-        return error(fmt::format("expected element {} of {} (number, type, {})", i + 1, element_count,
-                                 version < 2 ? "regions, node count, nodes" : "tags, nodes"));
+  while (true) {
+    while (str.empty() || str[0] != '$')
+      if (!f.gets(str) || f.eof()) break;
+    if (f.eof()) break;
+    const std::string section(after_first(str));
+    const std::string shown = section_shown(section);
+    const int section_line = f.gets_line();
+    if (starts(section, "MeshFormat")) {
+      int format = 0, size = 0;
+      if (!f.gets(str) || f.eof() || std::sscanf(str.c_str(), "%lf %d %d", &version, &format, &size) != 3)
+        return error(section_line + 1, "expected the version, file type and data size after $MeshFormat");
+      if (format) {  // binary from here on (Gmsh never sets it back)
+        binary = true;
+        std::int32_t one = 0;
+        if (!f.read(&one, 4)) return error(section_line + 2, "unexpected end of file in the byte-order check");
+        if (one != 1)
+          return error(section_line + 2,
+                       fmt::format("binary mesh whose byte-order check reads {} (expected the int 1: a big-endian "
+                                   "or damaged file; palpate reads little-endian binary meshes)",
+                                   one));
+      }
+    } else if (starts(section, "PhysicalNames")) {
+      long long n = 0;
+      if (Status s = count(shown, "names", n); !s) return s;
+      for (long long i = 0; i < n; ++i) {
+        long long v = 0;
+        if ((version > 2.0 && !f.scan_int(v)) || !f.scan_int(v) || !f.gets(str))
+          return error(f.token_line(), fmt::format("{}: expected name {} of {} (dimension, number, \"name\")", shown,
+                                                   i + 1, n));
+      }
+    } else if (starts(section, "NO") || starts(section, "Nodes") || starts(section, "ParametricNodes")) {
+      const bool parametric = starts(section, "ParametricNodes");
+      nodes_name = shown;
+      long long n = 0;
+      if (Status s = count(shown, "nodes", n); !s) return s;
+      ids.clear();
+      ids.reserve(static_cast<size_t>(n));
+      for (long long i = 0; i < n; ++i) {
+        long long id = 0, dim = 0, tag = 0;
+        double x[5];
+        bool ok = true;
+        if (binary) {
+          std::int32_t head[3] = {0, 0, 0};
+          ok = f.read(head, 4) && f.read(x, 24) && (!parametric || f.read(head + 1, 8));
+          id = head[0];
+          dim = head[1];
+          if (ok && parametric && (dim == 1 || dim == 2)) ok = f.read(x + 3, 8 * static_cast<size_t>(dim));
+        } else {
+          ok = f.scan_int(id) && f.scan_double(x[0]) && f.scan_double(x[1]) && f.scan_double(x[2]) &&
+               (!parametric || (f.scan_int(dim) && f.scan_int(tag)));
+          for (long long k = 0; ok && parametric && (dim == 1 || dim == 2) && k < dim; ++k) ok = f.scan_double(x[3 + k]);
+        }
+        if (!ok)
+          return binary ? error(section_line + 1, fmt::format("{} (binary): unexpected end of file in node {} of {}",
+                                                              shown, i + 1, n))
+                        : error(f.token_line(), fmt::format("{}: expected node {} of {} (its number, then x y z{})",
+                                                            shown, i + 1, n, parametric ? ", entity, u v" : ""));
+        ids.push_back(id);
+      }
+      std::sort(ids.begin(), ids.end());
+    } else if (starts(section, "ELM") || starts(section, "Elements")) {
+      long long n = 0;
+      if (Status s = count(shown, "elements", n); !s) return s;
+      const int count_line = f.gets_line();
+      const auto defined = [&](long long node) { return std::binary_search(ids.begin(), ids.end(), node); };
+      if (binary) {
+        const size_t body = f.at();
+        const auto block_error = [&](const std::string& what) {
+          return error(count_line, fmt::format("{} (binary, byte {} of the section): {}", shown, f.at() - body, what));
+        };
+        long long sum = 0;
+        for (long long b = 0; sum < n; ++b) {
+          std::int32_t header[3];
+          if (!f.read(header, 12)) return block_error(fmt::format("unexpected end of file in block {}", b));
+          const std::int32_t type = header[0], elements = header[1], tags = header[2];
+          if (type < 1 || type > 15) return block_error(fmt::format("block {}: element type {} is not read", b, type));
+          const long long ints = 1LL + tags + kNodesOfType[type];
+          if (elements < 1 || tags < 0 || elements > n - sum ||
+              static_cast<double>(elements) * static_cast<double>(ints) * 4.0 > static_cast<double>(t.size() - f.at()))
+            return block_error(fmt::format("block {} ({} elements of type {} with {} tags each) does not fit the file "
+                                           "or the total of {}",
+                                           b, elements, type, tags, n));
+          std::vector<std::int32_t> data(static_cast<size_t>(ints));
+          for (std::int32_t e = 0; e < elements; ++e) {
+            f.read(data.data(), data.size() * 4);  // fits: checked above
+            for (int k = 0; k < kNodesOfType[type]; ++k) {
+              const std::int32_t node = data[static_cast<size_t>(1 + tags + k)];
+              if (!defined(node))
+                return block_error(fmt::format("element {} names node {}, which {} does not define", data[0], node,
+                                               nodes_name));
+            }
+          }
+          sum += elements;
+        }
+      } else {
+        for (long long i = 0; i < n; ++i) {
+          // Format 1 (Gmsh: version <= 1.0): number, type, two region tags, node count, nodes.
+          // Later: number, type, tag count, tags, nodes.
+          long long head[5] = {0, 0, 0, 0, 0};
+          const int fields = version <= 1.0 ? 5 : 3;
+          for (int k = 0; k < fields; ++k)
+            if (!f.scan_int(head[k]))
+              return error(f.token_line(), fmt::format("{}: expected element {} of {} (number, type, {})", shown, i + 1, n,
+                                                       version <= 1.0 ? "regions, node count, nodes" : "tags, nodes"));
+          const long long type = head[1];
+          if (type < 1 || type > 15)
+            return error(f.token_line(), fmt::format("{}: element {}: type {} is not read", shown, head[0], type));
+          const long long tags = version <= 1.0 ? 0 : head[2];
+          const long long nodes = version <= 1.0 ? head[4] : kNodesOfType[type];
+          if (tags < 0 || tags > 64 || nodes != kNodesOfType[type])
+            return error(f.token_line(), fmt::format("{}: element {}: {} tags and {} nodes for type {} (expected {} nodes)",
+                                                     shown, head[0], tags, nodes, type, kNodesOfType[type]));
+          for (long long k = 0; k < tags + nodes; ++k) {
+            long long v = 0;
+            if (!f.scan_int(v))
+              return error(f.token_line(), fmt::format("{}: element {}: expected {} integers after its type", shown,
+                                                       head[0], tags + nodes));
+            if (k >= tags && !defined(v))
+              return error(f.token_line(), fmt::format("{}: element {} names node {}, which {} does not define", shown,
+                                                       head[0], v, nodes_name));
+          }
+        }
+      }
+    } else if (starts(section, "InterpolationScheme") || starts(section, "NodeData") ||
+               starts(section, "ElementData") || starts(section, "ElementNodeData")) {
+      // Post-processing views: Gmsh sizes their arrays by counts inside them; palpate has no use for them.
+      return error(section_line, fmt::format("{}: post-processing data is not read; save the mesh without it", shown));
     }
-    const long long type = head[1];
-    if (type < 1 || type > 15) return error(fmt::format("element {}: type {} is not read", head[0], type));
-    const long long tags = version < 2 ? 0 : head[2];
-    const long long nodes = version < 2 ? head[4] : kNodesOfType[type];
-    if (tags < 0 || tags > 64 || nodes != kNodesOfType[type])
-      return error(fmt::format("element {}: {} tags and {} nodes for type {} (expected {} nodes)", head[0], tags, nodes,
-                               type, kNodesOfType[type]));
-    for (long long k = 0; k < tags + nodes; ++k) {
-      std::string_view tok;
-      long long v = 0;
-      if (!in.next(tok) || !parse_int(tok, v))
-        return error(fmt::format("element {}: expected {} integers after its type", head[0], tags + nodes));
-      if (k >= tags && !defined(v))
-        return error(fmt::format("element {} names node {}, which {} does not define", head[0], v, nodes_name));
-    }
+    do {  // on to the next line that opens with '$' (normally the section's end, itself read as a section)
+      if (!f.gets(str) || f.eof()) break;
+    } while (str[0] != '$');
   }
   return {};
 }
@@ -406,27 +576,23 @@ Status check_msh4_entities(std::string_view body, bool binary, bool partitioned,
   const char* section = partitioned ? "$PartitionedEntities" : "$Entities";
   if (binary && version < 4.1) return {};
   TokenReader in(body, '\0');
-  size_t at = 0;  // binary: the byte within the section
+  ByteCursor bin{body};  // binary: the byte within the section
   const auto where = [&] {
-    return binary ? fmt::format("{}:{}: {} (binary, byte {} of the section)", name, line, section, at)
+    return binary ? fmt::format("{}:{}: {} (binary, byte {} of the section)", name, line, section, bin.at)
                   : fmt::format("{}:{}: {}", name, line + in.line(), section);
   };
-  const auto left = [&] { return binary ? body.size() - std::min(at, body.size()) : body.size(); };
+  const auto left = [&] { return binary ? bin.left() : body.size(); };
   // One integer (binary: an 8-byte count, or a 4-byte int when `is_int`).
   const auto integer = [&](long long& v, const char* what, bool is_int) -> Status {
     if (binary) {
-      const size_t n = is_int ? 4 : 8;
-      if (at + n > body.size()) return Error{fmt::format("{}: unexpected end of file, expected {}", where(), what)};
+      if (!bin.fits(is_int ? 4 : 8))
+        return Error{fmt::format("{}: unexpected end of file, expected {}", where(), what)};
       if (is_int) {
-        std::int32_t x = 0;
-        std::memcpy(&x, body.data() + at, 4);
-        v = x;
+        v = bin.get<std::int32_t>();
       } else {
-        std::uint64_t x = 0;
-        std::memcpy(&x, body.data() + at, 8);
+        const std::uint64_t x = bin.get<std::uint64_t>();
         v = x > static_cast<std::uint64_t>(std::numeric_limits<long long>::max()) ? -1 : static_cast<long long>(x);
       }
-      at += n;
       return {};
     }
     std::string_view t;
@@ -447,8 +613,8 @@ Status check_msh4_entities(std::string_view body, bool binary, bool partitioned,
   const auto skip = [&](long long n, bool is_int) -> Status {  // n ints, or n doubles when !is_int
     if (binary) {
       const size_t bytes = static_cast<size_t>(n) * (is_int ? 4 : 8);
-      if (at + bytes > body.size()) return Error{fmt::format("{}: unexpected end of file", where())};
-      at += bytes;
+      if (!bin.fits(bytes)) return Error{fmt::format("{}: unexpected end of file", where())};
+      bin.at += bytes;
       return {};
     }
     for (long long i = 0; i < n; ++i) {
@@ -513,12 +679,22 @@ Status check_msh_counts(const std::filesystem::path& file) {
   const std::string& t = *text;
   const size_t bytes = t.size();
   const std::string name = file.string();
-  // Version and binary flag from "$MeshFormat\n<version> <file-type> <data-size>".
+  // The version and file type Gmsh will read the file as.
   double version = 1.0;
-  int binary = 0, data_size = 8;
-  if (const size_t at = t.find("$MeshFormat"); at != std::string::npos)
-    if (std::sscanf(t.c_str() + at + 11, "%lf %d %d", &version, &binary, &data_size) < 1) version = 0;
-  if (binary && version >= 4 && data_size != 8)
+  bool is_binary = false;
+  int data_size = 8;
+  if (!gmsh_version(t, version, is_binary, data_size))
+    return Error{fmt::format("{}: expected a $MeshFormat section with the format's version, file type and data size",
+                             name)};
+  // Generous bounds: a node or element takes at least 4 bytes of text, and tags may be sparse,
+  // but not by more than a factor 64 of the file's size.
+  const double max_count = static_cast<double>(bytes) / 4.0 + 16;
+  if (version < 3) return check_msh2(t, max_count, name);
+  if (version < 4)
+    return Error{fmt::format("{}: Gmsh mesh format {} (MSH3) is not read; save the mesh in format 4.1 or 2.2", name,
+                             version)};
+  const int binary = is_binary ? 1 : 0;
+  if (binary && data_size != 8)
     return Error{fmt::format("{}: binary mesh with {}-byte sizes; expected 8", name, data_size)};
   if (binary) {
     // The int 1 after the format line: Gmsh takes anything else for a file of the other byte order
@@ -534,16 +710,8 @@ Status check_msh_counts(const std::filesystem::path& file) {
                                name, 2 + std::count(t.begin(), t.begin() + static_cast<std::ptrdiff_t>(std::min(eol, bytes)), '\n'),
                                one)};
   }
-  // Generous bounds: a node or element takes at least 4 bytes of text, and tags may be sparse,
-  // but not by more than a factor 64 of the file's size.
-  const double max_count = static_cast<double>(bytes) / 4.0 + 16;
   const double max_tag = std::max(1e6, 64.0 * static_cast<double>(bytes));
   std::uint64_t node_min = 0, node_max = 0;  // tag range of $Nodes, for the elements' nodes
-  struct OldSection {
-    size_t at = std::string::npos;  // the byte after the count's line
-    long long count = 0;
-    int line = 0;  // the count's line
-  } old_nodes, old_elements;  // formats 1 and 2
   int line = 1;
   size_t pos = 0;
   while (pos < bytes) {
@@ -551,16 +719,20 @@ Status check_msh_counts(const std::filesystem::path& file) {
     if (end == std::string::npos) end = bytes;
     std::string_view header(t.data() + pos, end - pos);
     while (!header.empty() && (header.back() == '\r' || header.back() == ' ')) header.remove_suffix(1);
-    if (!header.empty() && header.front() == '$' && !(binary && version >= 4)) {
+    if (!header.empty() && header.front() == '$' && !binary) {
       // In a text mesh file a line opening with '$' is a section name and nothing else.
       for (char c : header.substr(1))
         if (!std::isalpha(static_cast<unsigned char>(c)))
           return Error{fmt::format("{}:{}: expected a section name such as $Nodes, found '{}'", name, line,
                                    printable(header))};
     }
-    const bool nodes = header == "$Nodes" || header == "$NOD" || header == "$NOE";
-    const bool elements = header == "$Elements" || header == "$ELM";
-    if ((header == "$Entities" || header == "$PartitionedEntities") && version >= 4 && end < bytes) {
+    for (const char* post : {"$InterpolationScheme", "$NodeData", "$ElementData", "$ElementNodeData"})
+      if (starts(header, post))  // post-processing views: Gmsh sizes their arrays by counts inside them
+        return Error{fmt::format("{}:{}: {}: post-processing data is not read; save the mesh without it", name, line,
+                                 post)};
+    const bool nodes = header == "$Nodes";
+    const bool elements = header == "$Elements";
+    if ((header == "$Entities" || header == "$PartitionedEntities") && end < bytes) {
       // Four counts (points, curves, surfaces, volumes) Gmsh sizes its entity tables by (found by
       // fuzzing: a binary count of 1.3e19 points made it allocate exabytes), then each entity's.
       if (header == "$Entities") {
@@ -578,40 +750,32 @@ Status check_msh_counts(const std::filesystem::path& file) {
         return s;
     }
     if ((nodes || elements) && end < bytes) {
-      // v4: blocks, count, min tag, max tag; older: the count first.
+      // Blocks, count, min tag, max tag.
       double v[4];
-      const int n = section_counts(t, end + 1, version >= 4 && binary, v);
+      const int n = section_counts(t, end + 1, binary != 0, v);
       if (n < 1)  // Gmsh reads on with whatever count it has then (found by fuzzing: '+')
         return Error{fmt::format("{}:{}: expected the number of {} after {}", name, line + 1,
                                  nodes ? "nodes" : "elements", header)};
-      const double count = version >= 4 ? v[1] : v[0];
+      const double count = v[1];
       if (n >= 1 && (count < 0 || count > max_count))
         return Error{fmt::format("{}:{}: {} promises {:.0f} {}, more than the file can hold", name, line + 1, header,
                                  count, nodes ? "nodes" : "elements")};
-      if (version >= 4 && n == 4 && (v[3] > max_tag || v[2] < 0))
+      if (n == 4 && (v[3] > max_tag || v[2] < 0))
         return Error{fmt::format("{}:{}: {} tags run up to {:.0f}, far beyond the file's size (expected at most {:.0f})",
                                  name, line + 1, header, v[3], max_tag)};
-      if (version < 4) {  // formats 1 and 2: where the section's items start, for after the loop
-        const size_t items = t.find('\n', end + 1);
-        if (items != std::string::npos && v[0] == std::floor(v[0])) {
-          (nodes ? old_nodes : old_elements) = {items + 1, static_cast<long long>(v[0]), line + 1};
-        }
+      const std::string_view body = std::string_view(t).substr(end + 1);
+      if (nodes && n == 4) {
+        node_min = static_cast<std::uint64_t>(v[2]);
+        node_max = static_cast<std::uint64_t>(v[3]);
       }
-      if (version >= 4) {
-        const std::string_view body = std::string_view(t).substr(end + 1);
-        if (nodes && n == 4) {
-          node_min = static_cast<std::uint64_t>(v[2]);
-          node_max = static_cast<std::uint64_t>(v[3]);
-        }
-        if (Status s = binary ? check_msh4_binary_block_sums(body, nodes, line, name, node_min, node_max)
-                              : check_msh4_block_sums(body, nodes, line, name);
-            !s)
-          return s;
-      }
+      if (Status s = binary ? check_msh4_binary_block_sums(body, nodes, line, name, node_min, node_max)
+                            : check_msh4_block_sums(body, nodes, line, name);
+          !s)
+        return s;
     }
     pos = end + 1;
     ++line;
-    if (binary && version >= 4 && pos < bytes && t[pos] != '$') {
+    if (binary && pos < bytes && t[pos] != '$') {
       // Binary data: jump to the next line that opens a section.
       const size_t next = t.find("\n$", pos);
       if (next == std::string::npos) break;
@@ -619,9 +783,6 @@ Status check_msh_counts(const std::filesystem::path& file) {
       pos = next + 1;
     }
   }
-  if (version < 4 && old_nodes.at != std::string::npos && old_elements.at != std::string::npos)
-    return check_msh12_elements(t, old_nodes.at, old_nodes.count, old_nodes.line, old_elements.at, old_elements.count,
-                                old_elements.line, binary != 0, version, name);
   return {};
 }
 
