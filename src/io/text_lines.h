@@ -26,6 +26,7 @@ class TokenReader {
   bool line_tokens(std::string_view* tokens, size_t capacity, size_t& count, size_t& total);
 
   int line() const { return token_line_; }
+  size_t position() const { return pos_; }  // the byte after the last token read
   int current_line() const { return line_; }
 
  private:
