@@ -360,6 +360,13 @@ TEST(MeshErrors, GmshFilesThatWouldCrashGmsh) {
   const auto long_line = v2_with("long_line.msh", std::string(255, '#') + "$Elements\n");
   EXPECT_EQ(palpate::load_tet(long_line).error().message,
             long_line.string() + ":23: $Elements: element 7 names node 99, which $Nodes does not define");
+  // A partition in a format-2 element's tags (Gmsh 4.8 converts old partitions and crashed on a
+  // damaged one: `palpate info` segfaulted; found by fuzzing).
+  const auto partitioned = dir.write("partitioned.msh", std::string(v2).replace(v2.find("1 2 2 1 1 1 3 4"), 15,
+                                                                                 "1 2 3 1 1 2 1 3 4"));
+  EXPECT_EQ(palpate::load_tet(partitioned).error().message,
+            partitioned.string() + ":17: $Elements: element 1 has partition or parent tag 2: palpate reads format-2 "
+                                   "meshes without partitions (save as format 4.1)");
   // MSH3 and post-processing views are refused, not guessed at.
   const auto msh3 = dir.write("msh3.msh", std::string(v2).replace(v2.find("2.2 0 8"), 7, "3 0 8"));
   expect_error(palpate::load_tet(msh3), msh3, {"Gmsh mesh format 3 (MSH3) is not read; save the mesh in format 4.1 or 2.2"});

@@ -512,6 +512,14 @@ Status check_msh2(const std::string& t, double max_count, const std::string& nam
       if (Status s = count(shown, "elements", n); !s) return s;
       const int count_line = f.gets_line();
       const auto defined = [&](long long node) { return std::binary_search(ids.begin(), ids.end(), node); };
+      // Tags after the physical and elementary ones are partitions, parents and domains: Gmsh 4.8
+      // turns them into partitioned entities and crashed doing so on damaged ones (found by
+      // fuzzing: a "2.2"-less version 1.2 file, `palpate info` segfaulted). Only 0 (none) is read.
+      const auto extra_tags = [&](long long element, long long value) {
+        return fmt::format("element {} has partition or parent tag {}: palpate reads format-2 meshes without "
+                           "partitions (save as format 4.1)",
+                           element, value);
+      };
       if (binary) {
         const size_t body = f.at();
         const auto block_error = [&](const std::string& what) {
@@ -532,6 +540,8 @@ Status check_msh2(const std::string& t, double max_count, const std::string& nam
           std::vector<std::int32_t> data(static_cast<size_t>(ints));
           for (std::int32_t e = 0; e < elements; ++e) {
             f.read(data.data(), data.size() * 4);  // fits: checked above
+            for (std::int32_t k = 2; k < tags; ++k)
+              if (data[static_cast<size_t>(1 + k)] != 0) return block_error(extra_tags(data[0], data[static_cast<size_t>(1 + k)]));
             for (int k = 0; k < kNodesOfType[type]; ++k) {
               const std::int32_t node = data[static_cast<size_t>(1 + tags + k)];
               if (!defined(node))
@@ -564,6 +574,7 @@ Status check_msh2(const std::string& t, double max_count, const std::string& nam
             if (!f.scan_int(v))
               return error(f.token_line(), fmt::format("{}: element {}: expected {} integers after its type", shown,
                                                        head[0], tags + nodes));
+            if (k >= 2 && k < tags && v != 0) return error(f.token_line(), shown + ": " + extra_tags(head[0], v));
             if (k >= tags && !defined(v))
               return error(f.token_line(), fmt::format("{}: element {} names node {}, which {} does not define", shown,
                                                        head[0], v, nodes_name));
