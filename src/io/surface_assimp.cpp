@@ -50,12 +50,24 @@ size_t ply_type_size(std::string_view t) {
   return 0;
 }
 
+bool ply_integer_type(std::string_view t) { return ply_type_size(t) > 0 && t.find("float") == std::string_view::npos && t != "double"; }
+
 // assimp 5.2's PLY reader loops forever on a header without "end_header", and trusts the header's
 // element counts (a 318-byte cube claiming 100,000,000 vertices ran for a minute and 1.3 GB;
 // claiming fewer, it "read" vertices the file does not have): check the header ourselves, and
 // every count against what the file holds after it, before handing the file over (as the OFF and
 // Gmsh readers do). Each element needs at least one number per property (a list, its count)
 // in ASCII, and at least its properties' bytes (a list, its count's) in binary.
+//
+// It also sizes its vertex and face arrays by the first "vertex" and the first "face" (or
+// "tristrips") element and writes every later one's into them: a second, larger "element vertex"
+// wrote past the array (found by fuzzing: ASan's heap check failed inside assimp; valgrind showed
+// the write), and a face's texture-coordinate list is read against its vertex list. So the header
+// must be one assimp and palpate read alike — line 2 the format, then only comment, obj_info,
+// element, property (of a known type) and end_header lines, one vertex element before at most one
+// face or tristrips element, the face's vertex indices a list — and the body is walked instance by
+// instance (ASCII: one line each, every value a number of its type; binary: every list's count
+// within the bytes left) before assimp reads it.
 Status check_ply_header(const std::filesystem::path& file) {
   std::ifstream in(file, std::ios::binary);
   std::string line;
@@ -64,18 +76,25 @@ Status check_ply_header(const std::filesystem::path& file) {
     while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.pop_back();
     return line;
   };
+  struct Property {
+    bool list = false;
+    std::string count_type, type, name;
+  };
   struct Element {
     std::string name;
     unsigned long long count = 0;
     size_t numbers = 0, bytes = 0;  // at least, per element
     int line = 0;
+    std::vector<Property> properties;
   };
   std::vector<Element> elements;
-  bool ascii = false;
+  bool ascii = false, big_endian = false;
   const std::string name = file.string();
+  const auto error = [&](int at, const std::string& what) { return Error{fmt::format("{}:{}: {}", name, at, what)}; };
   while (std::getline(in, line)) {
     ++number;
     if (number == 1 && trimmed() != "ply") return Error{fmt::format("{}:1: expected the PLY magic line 'ply'", name)};
+    if (number == 1) continue;
     const std::string l = trimmed();
     std::string_view tok[6];
     size_t n = 0;
@@ -85,46 +104,169 @@ Status check_ply_header(const std::filesystem::path& file) {
       while (i < l.size() && l[i] != ' ' && l[i] != '\t') ++i;
       if (i > start) tok[n++] = std::string_view(l).substr(start, i - start);
     }
-    if (n >= 2 && tok[0] == "format") ascii = tok[1] == "ascii";
-    if (n >= 3 && tok[0] == "element") {
+    if (number == 2) {
+      if (n != 3 || tok[0] != "format" ||
+          (tok[1] != "ascii" && tok[1] != "binary_little_endian" && tok[1] != "binary_big_endian"))
+        return error(2, fmt::format("expected 'format ascii 1.0' (or binary_little_endian, binary_big_endian), found "
+                                    "'{}'",
+                                    io::printable(l)));
+      ascii = tok[1] == "ascii";
+      big_endian = tok[1] == "binary_big_endian";
+      continue;
+    }
+    if (n >= 1 && (tok[0] == "comment" || tok[0] == "obj_info")) continue;
+    if (n == 3 && tok[0] == "element") {
       long long count = 0;
       if (!io::parse_int(tok[2], count) || count < 0)
         return Error{fmt::format("{}:{}: element {}: expected a count >= 0, found '{}'", name, number,
                                  io::printable(tok[1]), io::printable(tok[2]))};
-      elements.push_back({std::string(tok[1]), static_cast<unsigned long long>(count), 0, 0, number});
+      const auto seen = [&](std::initializer_list<const char*> names) {
+        for (const Element& e : elements)
+          for (const char* x : names)
+            if (e.name == x) return true;
+        return false;
+      };
+      const bool faces = tok[1] == "face" || tok[1] == "tristrips";
+      if (tok[1] == "vertex" && seen({"vertex"}))
+        return error(number, "a second 'element vertex' (assimp writes it into the first one's array)");
+      if (faces && seen({"face", "tristrips"}))
+        return error(number, fmt::format("a second face element '{}' (assimp writes it into the first one's array)",
+                                         io::printable(tok[1])));
+      if (faces && !seen({"vertex"})) return error(number, "the face element comes before 'element vertex'");
+      elements.push_back({std::string(tok[1]), static_cast<unsigned long long>(count), 0, 0, number, {}});
+      continue;
     }
-    if (n >= 3 && tok[0] == "property" && !elements.empty()) {
+    if (tok[0] == "property" && ((n == 3 && tok[1] != "list") || (n == 5 && tok[1] == "list"))) {
+      if (elements.empty()) return error(number, "a property before any element");
+      const bool list = n == 5;
+      const std::string_view type = list ? tok[3] : tok[1];
+      if (ply_type_size(type) == 0 || (list && !ply_integer_type(tok[2])))
+        return error(number, fmt::format("property '{}': unknown type (expected char, uchar, short, ushort, int, uint, "
+                                         "float or double; a list's count an integer type)",
+                                         io::printable(l)));
       Element& e = elements.back();
       e.numbers += 1;
-      e.bytes += tok[1] == "list" ? (n >= 3 ? ply_type_size(tok[2]) : 0) : ply_type_size(tok[1]);
+      e.bytes += list ? ply_type_size(tok[2]) : ply_type_size(type);
+      e.properties.push_back({list, list ? std::string(tok[2]) : "", std::string(type), std::string(list ? tok[4] : tok[2])});
+      continue;
     }
-    if (l == "end_header") {
-      // What follows the header: numbers (ASCII) or bytes (binary).
-      unsigned long long have = 0;
-      if (ascii) {
-        bool in_token = false;
-        for (std::istreambuf_iterator<char> it(in), end; it != end; ++it) {
-          const char c = *it;
-          const bool space = c == ' ' || c == '\t' || c == '\n' || c == '\r';
-          if (!space && !in_token) ++have;
-          in_token = !space;
+    if (l != "end_header")
+      return error(number, fmt::format("expected comment, obj_info, element, property or end_header, found '{}'",
+                                       io::printable(l)));
+    for (const Element& e : elements)
+      if (e.name == "face") {
+        bool indices = false;
+        for (const Property& p : e.properties) indices |= p.list && (p.name == "vertex_indices" || p.name == "vertex_index");
+        if (!indices) return error(e.line, "element face has no 'property list ... vertex_indices'");
+      }
+    // What follows the header: numbers (ASCII) or bytes (binary).
+    const std::string body(std::istreambuf_iterator<char>(in), {});
+    unsigned long long have = 0;
+    if (ascii) {
+      bool in_token = false;
+      for (const char c : body) {
+        const bool space = c == ' ' || c == '\t' || c == '\n' || c == '\r';
+        if (!space && !in_token) ++have;
+        in_token = !space;
+      }
+    } else {
+      have = body.size();
+    }
+    unsigned long long need = 0;
+    for (const Element& e : elements) {
+      const size_t each = std::max<size_t>(1, ascii ? e.numbers : e.bytes);
+      if (e.count > (have - std::min(have, need)) / each)
+        return Error{fmt::format("{}:{}: element {} claims {} but the file holds data for at most {} ({} {} after "
+                                 "the header)", name, e.line, e.name, e.count,
+                                 (have - std::min(have, need)) / each, have, ascii ? "numbers" : "bytes")};
+      need += e.count * each;
+    }
+    // The body, instance by instance: in ASCII one line each.
+    size_t at = 0;       // the byte after the header
+    int body_line = number;
+    std::vector<std::string_view> values;  // ASCII: the tokens of the instance's line
+    size_t next_value = 0;
+    for (const Element& e : elements) {
+      for (unsigned long long i = 0; i < e.count; ++i) {
+        const auto bad = [&](const std::string& what) {
+          return ascii ? error(body_line, fmt::format("element {} {}: {}", e.name, i, what))
+                       : error(e.line, fmt::format("element {} {} (binary, byte {} after the header): {}", e.name, i, at,
+                                                   what));
+        };
+        if (ascii) {
+          if (at >= body.size()) {
+            ++body_line;
+            return bad("unexpected end of file");
+          }
+          size_t eol = body.find('\n', at);
+          if (eol == std::string::npos) eol = body.size();
+          const std::string_view row = std::string_view(body).substr(at, eol - at);
+          at = eol + 1;
+          ++body_line;
+          values.clear();
+          next_value = 0;
+          for (size_t k = 0; k < row.size();) {
+            while (k < row.size() && (row[k] == ' ' || row[k] == '\t' || row[k] == '\r')) ++k;
+            const size_t start = k;
+            while (k < row.size() && row[k] != ' ' && row[k] != '\t' && row[k] != '\r') ++k;
+            if (k > start) values.push_back(row.substr(start, k - start));
+          }
         }
-      } else {
-        const std::streamoff at = in.tellg();
-        in.seekg(0, std::ios::end);
-        have = static_cast<unsigned long long>(std::max<std::streamoff>(0, in.tellg() - at));
+        // The next ASCII value as an integer (or a number), false when the line has no more.
+        const auto ascii_value = [&](bool integer, long long& iv) {
+          if (next_value >= values.size()) return false;
+          double dv = 0;
+          const std::string_view t = values[next_value++];
+          return integer ? io::parse_int(t, iv) : io::parse_double(t, dv);
+        };
+        long long vertex_list = -1, texcoords = -1;
+        for (const Property& p : e.properties) {
+          long long count = 1;
+          if (p.list) {
+            if (ascii) {
+              if (!ascii_value(true, count) || count < 0)
+                return bad(fmt::format("expected the count of list '{}'", p.name));
+            } else {
+              const size_t size = ply_type_size(p.count_type);
+              if (size > body.size() - std::min(at, body.size())) return bad("unexpected end of file");
+              unsigned char b[8] = {};
+              std::memcpy(b, body.data() + at, size);
+              at += size;
+              if (big_endian) std::reverse(b, b + size);
+              const bool is_signed = p.count_type == "char" || p.count_type == "int8" || p.count_type == "short" ||
+                                     p.count_type == "int16" || p.count_type == "int" || p.count_type == "int32";
+              std::uint32_t u = 0;
+              std::memcpy(&u, b, size);  // little-endian host, as palpate's checks assume
+              count = !is_signed ? static_cast<long long>(u)
+                      : size == 1 ? static_cast<std::int8_t>(u)
+                      : size == 2 ? static_cast<std::int16_t>(u)
+                                  : static_cast<std::int32_t>(u);
+              if (count < 0) return bad(fmt::format("list '{}' has {} values", p.name, count));
+            }
+            if (p.name == "vertex_indices" || p.name == "vertex_index") vertex_list = count;
+            if (p.name == "texcoord") texcoords = count;
+          }
+          if (ascii) {
+            for (long long k = 0; k < count; ++k) {
+              long long v = 0;
+              if (!ascii_value(ply_integer_type(p.type), v))
+                return bad(fmt::format("expected {} {} value{} for '{}'", count, p.type, count == 1 ? "" : "s", p.name));
+            }
+          } else {
+            const double bytes = static_cast<double>(count) * static_cast<double>(ply_type_size(p.type));
+            if (bytes > static_cast<double>(body.size() - std::min(at, body.size())))
+              return bad(fmt::format("list '{}' of {} values runs past the end of the file", p.name, count));
+            at += static_cast<size_t>(bytes);
+          }
+        }
+        if (ascii && next_value != values.size())
+          return bad(fmt::format("{} values on the line, its properties take {}", values.size(), next_value));
+        // assimp reads a face's texture coordinates (6 to 8 values) against its vertex list.
+        if (texcoords >= 6 && texcoords <= 8 && (texcoords - 1) / 2 >= vertex_list)
+          return bad(fmt::format("{} texture coordinates for {} vertex indices", texcoords, vertex_list));
       }
-      unsigned long long need = 0;
-      for (const Element& e : elements) {
-        const size_t each = std::max<size_t>(1, ascii ? e.numbers : e.bytes);
-        if (e.count > (have - std::min(have, need)) / each)
-          return Error{fmt::format("{}:{}: element {} claims {} but the file holds data for at most {} ({} {} after "
-                                   "the header)", name, e.line, e.name, e.count,
-                                   (have - std::min(have, need)) / each, have, ascii ? "numbers" : "bytes")};
-        need += e.count * each;
-      }
-      return {};
     }
+    return {};
   }
   return Error{fmt::format("{}:{}: unexpected end of file, expected 'end_header' to close the PLY header",
                            name, number)};
