@@ -147,7 +147,11 @@ TEST(MeshLoad, LiverTetBoundaryIsClosedAndEnclosesTheTetVolume) {
 TEST(MeshLoad, CubeInEverySurfaceFormat) {
   palpate::test::ScratchDir dir;
   const auto binary = dir.write("cube_binary.stl", binary_stl(palpate::test::cube_surface(), "binary cube"));
-  for (const auto& file : {test_mesh("cube_ascii.stl"), binary, test_mesh("cube.ply"), test_mesh("cube.off")}) {
+  // The PLY variants as other tools write them (binary both ways with normals, colours and face
+  // texture coordinates; CRLF ASCII with doubles): palpate's walk of the PLY file accepts them.
+  for (const auto& file : {test_mesh("cube_ascii.stl"), binary, test_mesh("cube.ply"), test_mesh("cube.off"),
+                           test_mesh("cube_binary_little.ply"), test_mesh("cube_binary_big.ply"),
+                           test_mesh("cube_crlf.ply")}) {
     SCOPED_TRACE(file.string());
     const auto m = palpate::load_surface(file, 1.0, {.manifold = true, .closed = true});
     ASSERT_TRUE(m.ok()) << m.error().message;

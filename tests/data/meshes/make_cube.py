@@ -29,6 +29,22 @@ with open('cube.ply','w') as f:
     f.write('ply\nformat ascii 1.0\ncomment unit cube, 6 quads (triangulated on load)\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\nelement face 6\nproperty list uchar int vertex_indices\nend_header\n')
     for v in V: f.write(g(v)+'\n')
     for q in quads: f.write('4 '+' '.join(map(str,q))+'\n')
+# PLY as other tools write it: binary both ways, with normals, colours and per-face texture
+# coordinates (8 per quad), and ASCII with CRLF line ends, doubles and 'vertex_index'.
+import struct
+for e,name in (('<','little'),('>','big')):
+    with open(f'cube_binary_{name}.ply','wb') as f:
+        f.write((f'ply\nformat binary_{name}_endian 1.0\ncomment unit cube as MeshLab-like tools write it\nobj_info palpate test\n'
+                 'element vertex 8\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\n'
+                 'property float nz\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n'
+                 'element face 6\nproperty list uchar uint vertex_indices\nproperty list uchar float texcoord\nend_header\n').encode())
+        for v in V: f.write(struct.pack(e+'6f4B',*v,0,0,1,200,180,170,255))
+        for q in quads: f.write(struct.pack(e+'B4I',4,*q)+struct.pack(e+'B8f',8,0,0,1,0,1,1,0,1))
+with open('cube_crlf.ply','w',newline='') as f:
+    f.write('ply\r\nformat ascii 1.0\r\nelement vertex 8\r\nproperty double x\r\nproperty double y\r\nproperty double z\r\n'
+            'property uchar red\r\nelement face 6\r\nproperty list uchar int vertex_index\r\nend_header\r\n')
+    for v in V: f.write(g(v)+' 255\r\n')
+    for q in quads: f.write('4 '+' '.join(map(str,q))+'\r\n')
 with open('cube.off','w') as f:
     f.write('OFF\n# unit cube, 12 triangles\n8 12 0\n')
     for v in V: f.write(g(v)+'\n')
