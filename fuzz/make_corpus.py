@@ -47,6 +47,8 @@ for endian, fmt in (('little', '<'), ('big', '>')):
             'property float z\nelement face 12\nproperty list uchar int vertex_indices\nend_header\n').encode()
     body = b''.join(struct.pack(fmt + '3f', *v) for v in V) + b''.join(struct.pack(fmt + 'B3i', 3, *t) for t in F)
     put('fuzz_surface_ply', f'cube_binary_{endian}.ply', head + body)
+for name in ('cube_binary_little.ply', 'cube_binary_big.ply', 'cube_crlf.ply'):  # as other tools write PLY
+    put('fuzz_surface_ply', 'tools_' + name, src('tests/data/meshes/' + name))
 put('fuzz_surface_stl', 'cube_ascii.stl', src('tests/data/meshes/cube_ascii.stl'))
 put('fuzz_surface_stl', 'cube_binary.stl', b'binary cube'.ljust(80, b' ') + struct.pack('<I', len(F)) +
     b''.join(struct.pack('<12fH', *normal(t), *[x for i in t for x in V[i]], 0) for t in F))
