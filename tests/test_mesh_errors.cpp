@@ -529,6 +529,37 @@ TEST(MeshErrors, PlyStructureAssimpWouldMisreadIsRefused) {
   ASSERT_TRUE(palpate::load_surface(palpate::test::test_mesh("cube.ply")).ok());
 }
 
+// assimp 5.2 reads an OFF file's vertex and face lines without skipping comments, and counts its
+// face total down for every line that is not a face of 1 to 9 vertices — below zero when comment
+// lines follow too few faces (found by fuzzing: `palpate info` segfaulted). The file is walked as
+// assimp reads it first.
+TEST(MeshErrors, OffLinesAssimpWouldMisreadAreRefused) {
+  ScratchDir dir;
+  const std::string tri = "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n";
+  const auto comments = dir.write("comments.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n# a\n# b\n# c\n");
+  EXPECT_EQ(palpate::load_surface(comments).error().message,
+            comments.string() + ":7: face 1: expected '<n> <n vertex indices>' with n from 3 to 9, found '# a'");
+  const auto among = dir.write("among.off", "OFF\n3 1 0\n0 0 0\n# the second vertex\n1 0 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_EQ(palpate::load_surface(among).error().message,
+            among.string() + ":4: vertex 1 of 3: expected 'x y z', found '# the second vertex'");
+  const auto ten = dir.write("ten.off", tri + "10 0 1 2 0 1 2 0 1 2 0\n");
+  EXPECT_NE(palpate::load_surface(ten).error().message.find(":6: face 0: expected '<n> <n vertex indices>' with n "
+                                                            "from 3 to 9"),
+            std::string::npos);
+  const auto lone_cr = dir.write("lone_cr.off", tri + "3 0 1\r2\n");
+  EXPECT_NE(palpate::load_surface(lone_cr).error().message.find("a NUL, form feed or lone carriage return"),
+            std::string::npos);
+  const auto variant = dir.write("variant.off", "4OFF\n3 1 0\n0 0 0 1\n1 0 0 1\n0 1 0 1\n3 0 1 2\n");
+  EXPECT_EQ(palpate::load_surface(variant).error().message,
+            variant.string() + ":1: OFF variant '4OFF' is not read (expected OFF, COFF, NOFF, CNOFF or STOFF)");
+  // Comments and blank lines before the vertices, CRLF line ends and a count line split over lines still load.
+  const auto fine = dir.write("fine.off", "# made by hand\r\nOFF\r\n# counts\r\n3\r\n1 0\r\n\r\n# first vertex next\r\n"
+                                          "0 0 0\r\n1 0 0\r\n0 1 0\r\n3 0 1 2\r\n# trailing comment\r\n");
+  auto m = palpate::load_surface(fine);
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  EXPECT_EQ(m->F.rows(), 1);
+}
+
 // An OBJ's mtllib is read only as a regular file beside the mesh: a FIFO blocked the load forever,
 // /dev/zero was read without end, another directory's file was opened. The mesh loads without it.
 TEST(MeshErrors, ObjMaterialLibrariesOnlyBesideTheMesh) {

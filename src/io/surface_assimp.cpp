@@ -14,6 +14,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <array>
 #include <cstdint>
 #include <iterator>
@@ -88,13 +89,20 @@ Status check_ply_header(const std::filesystem::path& file) {
     std::vector<Property> properties;
   };
   std::vector<Element> elements;
-  bool ascii = false, big_endian = false;
+  bool ascii = false, big_endian = false, header_cr = false;
   const std::string name = file.string();
   const auto error = [&](int at, const std::string& what) { return Error{fmt::format("{}:{}: {}", name, at, what)}; };
   while (std::getline(in, line)) {
     ++number;
     if (number == 1 && trimmed() != "ply") return Error{fmt::format("{}:1: expected the PLY magic line 'ply'", name)};
     if (number == 1) continue;
+    // assimp ends a line at '\r', '\0' and '\f' as well as '\n' (a lone '\r' makes two lines of one)
+    // and starts a binary body one byte early after a CRLF end_header: such headers are refused.
+    const size_t cr = line.find('\r');
+    if (line.find('\0') != std::string::npos || line.find('\f') != std::string::npos ||
+        (cr != std::string::npos && cr + 1 != line.size()))
+      return error(number, "a NUL, form feed or carriage return inside a header line");
+    header_cr |= cr != std::string::npos;
     const std::string l = trimmed();
     std::string_view tok[6];
     size_t n = 0;
@@ -117,9 +125,18 @@ Status check_ply_header(const std::filesystem::path& file) {
     if (n >= 1 && (tok[0] == "comment" || tok[0] == "obj_info")) continue;
     if (n == 3 && tok[0] == "element") {
       long long count = 0;
-      if (!io::parse_int(tok[2], count) || count < 0)
+      if (!io::parse_int(tok[2], count) || count < 0 || tok[2].front() == '+')  // assimp reads "+6" as 0
         return Error{fmt::format("{}:{}: element {}: expected a count >= 0, found '{}'", name, number,
                                  io::printable(tok[1]), io::printable(tok[2]))};
+      // assimp 5.2 reads the count of an element it has no name for from the start of its name
+      // (found by fuzzing: "element 6666…6face 12" made it allocate 68 GB; "element camera 1" is 0
+      // instances to it, and the rest of the body is misread).
+      const bool known = tok[1] == "vertex" || tok[1] == "face" || tok[1] == "tristrips" || tok[1] == "edge" ||
+                         tok[1] == "material";
+      if (!known && (count != 0 || std::isdigit(static_cast<unsigned char>(tok[1].front())) || tok[1] == "TextureFile"))
+        return error(number, fmt::format("element {}: assimp 5.2 reads only vertex, face, tristrips, edge and material "
+                                         "elements (others must be empty)",
+                                         io::printable(tok[1])));
       const auto seen = [&](std::initializer_list<const char*> names) {
         for (const Element& e : elements)
           for (const char* x : names)
@@ -153,6 +170,8 @@ Status check_ply_header(const std::filesystem::path& file) {
     if (l != "end_header")
       return error(number, fmt::format("expected comment, obj_info, element, property or end_header, found '{}'",
                                        io::printable(l)));
+    if (!ascii && header_cr) return error(number, "a binary PLY file whose header lines end in CRLF (assimp 5.2 "
+                                                  "reads its body from the wrong byte)");
     for (const Element& e : elements)
       if (e.name == "face") {
         bool indices = false;
@@ -200,7 +219,12 @@ Status check_ply_header(const std::filesystem::path& file) {
           }
           size_t eol = body.find('\n', at);
           if (eol == std::string::npos) eol = body.size();
-          const std::string_view row = std::string_view(body).substr(at, eol - at);
+          std::string_view row = std::string_view(body).substr(at, eol - at);
+          if (!row.empty() && row.back() == '\r') row.remove_suffix(1);
+          if (row.find_first_of(std::string_view("\r\f\0", 3)) != std::string_view::npos) {
+            ++body_line;
+            return bad("a NUL, form feed or carriage return inside the line (assimp 5.2 splits the line there)");
+          }
           at = eol + 1;
           ++body_line;
           values.clear();
@@ -273,43 +297,120 @@ Status check_ply_header(const std::filesystem::path& file) {
 }
 
 // assimp 5.2's OFF reader silently clamps an out-of-range vertex index to the last vertex, which
-// would turn a broken face into a wrong one: check the face lines ourselves first.
+// would turn a broken face into a wrong one, and it reads the file in a way of its own: the header's
+// counts with comments and line breaks skipped between them, then exactly that many lines for the
+// vertices (a comment line there is a vertex at the origin), then lines until it has as many faces
+// of 1 to 9 vertices as promised, counting the face total down for every other line — below zero
+// (found by fuzzing: comment lines after too few faces made it read 4 billion faces, `palpate info`
+// segfaulted). Lines end at '\r', '\n', '\f' or NUL, and are cut at 4,096 bytes. So the file is
+// walked as assimp reads it and refused where the two would part: every vertex line three
+// numbers, every face line 3 to 9 indices within the vertices, exactly as many as the header says.
 Status check_off_indices(const std::filesystem::path& file) {
   Result<std::string> text = io::read_whole_file(file);
   if (!text) return text.error();
+  const std::string& t = *text;
   const std::string name = file.string();
-  io::TokenReader in(*text, '#');
-  constexpr size_t kMax = 64;
-  std::string_view tok[kMax];
-  size_t count = 0, total = 0;
-  const auto error = [&](const std::string& what) { return Error{fmt::format("{}:{}: {}", name, in.line(), what)}; };
-  if (!in.line_tokens(tok, kMax, count, total) || tok[0].size() < 3 || tok[0].substr(tok[0].size() - 3) != "OFF")
-    return error("expected the OFF header line 'OFF'");
-  if (tok[0] != "OFF" && tok[0] != "COFF" && tok[0] != "NOFF" && tok[0] != "CNOFF" && tok[0] != "STOFF")
-    return {};  // 4OFF, nOFF and other variants: left to assimp
-  size_t first = 1;
-  if (count == 1) {
-    if (!in.line_tokens(tok, kMax, count, total)) return error("unexpected end of file, expected '<vertices> <faces> <edges>'");
-    first = 0;
+  size_t pos = 0;
+  const auto line_at = [&](size_t at) {
+    return 1 + static_cast<int>(std::count(t.begin(), t.begin() + static_cast<std::ptrdiff_t>(std::min(at, t.size())), '\n'));
+  };
+  const auto error = [&](size_t at, const std::string& what) {
+    return Error{fmt::format("{}:{}: {}", name, line_at(at), what)};
+  };
+  for (size_t i = 0; i < t.size(); ++i)
+    if (t[i] == '\0' || t[i] == '\f' || (t[i] == '\r' && (i + 1 >= t.size() || t[i + 1] != '\n')))
+      return error(i, "a NUL, form feed or lone carriage return (assimp 5.2 ends a line there)");
+  const auto space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; };
+  // assimp's NextToken: spaces, line ends and whole '#' comment lines.
+  const auto next_token = [&] {
+    while (true) {
+      while (pos < t.size() && space(t[pos])) ++pos;
+      if (pos < t.size() && t[pos] == '#') {
+        while (pos < t.size() && t[pos] != '\n') ++pos;
+        continue;
+      }
+      return;
+    }
+  };
+  const auto token = [&] {
+    const size_t start = pos;
+    while (pos < t.size() && !space(t[pos])) ++pos;
+    return std::string_view(t).substr(start, pos - start);
+  };
+  const auto digits = [](std::string_view tok, unsigned long long& v) {  // strtoul10 on a whole token
+    if (tok.empty() || tok.size() > 9) return false;
+    v = 0;
+    for (char c : tok) {
+      if (c < '0' || c > '9') return false;
+      v = v * 10 + static_cast<unsigned long long>(c - '0');
+    }
+    return true;
+  };
+  next_token();
+  const size_t header_at = pos;
+  const std::string_view magic = token();
+  if (magic.size() < 3 || magic.substr(magic.size() - 3) != "OFF")
+    return error(header_at, "expected the OFF header line 'OFF'");
+  if (magic != "OFF" && magic != "COFF" && magic != "NOFF" && magic != "CNOFF" && magic != "STOFF")
+    return error(header_at, fmt::format("OFF variant '{}' is not read (expected OFF, COFF, NOFF, CNOFF or STOFF)",
+                                        io::printable(magic)));
+  unsigned long long counts[3] = {0, 0, 0};
+  for (unsigned long long& c : counts) {
+    next_token();
+    const size_t at = pos;
+    if (!digits(token(), c)) return error(at, "expected the counts '<vertices> <faces> <edges>'");
   }
-  long long nv = 0, nf = 0;
-  if (count < first + 2 || !io::parse_int(tok[first], nv) || !io::parse_int(tok[first + 1], nf) || nv < 0 || nf < 0)
-    return error("expected the counts '<vertices> <faces> <edges>'");
-  for (long long v = 0; v < nv; ++v)
-    if (!in.line_tokens(tok, kMax, count, total))
-      return error(fmt::format("unexpected end of file, expected vertex {} of {}", v, nv));
-  for (long long f = 0; f < nf; ++f) {
-    if (!in.line_tokens(tok, kMax, count, total))
-      return error(fmt::format("unexpected end of file, expected face {} of {}", f, nf));
-    long long k = 0;
-    if (!io::parse_int(tok[0], k) || k < 3 || static_cast<size_t>(k) + 1 > total)
-      return error(fmt::format("face {}: expected '<n> <n vertex indices>' with n >= 3", f));
-    for (long long j = 1; j <= k && static_cast<size_t>(j) < count; ++j) {
-      long long idx = 0;
-      if (!io::parse_int(tok[j], idx))
-        return error(fmt::format("face {}: expected a vertex index, found '{}'", f, io::printable(tok[j])));
-      if (idx < 0 || idx >= nv)
-        return error(fmt::format("face {} has vertex index {} out of range [0, {})", f, idx, nv));
+  const unsigned long long nv = counts[0], nf = counts[1];
+  if (nv == 0 || nf == 0) return error(header_at, "expected at least one vertex and one face");
+  next_token();
+  // assimp's GetNextLine from here: a line runs to '\r' or '\n'; the line ends after it are skipped.
+  const auto next_line = [&](std::string_view& line, size_t& at) {
+    if (pos >= t.size()) return false;
+    at = pos;
+    size_t e = pos;
+    while (e < t.size() && t[e] != '\n' && t[e] != '\r') ++e;
+    line = std::string_view(t).substr(pos, e - pos);
+    pos = e;
+    while (pos < t.size() && (t[pos] == '\n' || t[pos] == '\r')) ++pos;
+    return true;
+  };
+  const auto split = [](std::string_view line, std::string_view* out, size_t capacity) {
+    size_t n = 0;
+    for (size_t i = 0; i < line.size() && n < capacity;) {
+      while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+      const size_t start = i;
+      while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
+      if (i > start) out[n++] = line.substr(start, i - start);
+    }
+    return n;
+  };
+  std::string_view line, tok[11];
+  size_t at = 0;
+  for (unsigned long long v = 0; v < nv; ++v) {
+    if (!next_line(line, at)) return error(t.size(), fmt::format("unexpected end of file, expected vertex {} of {}", v, nv));
+    if (line.size() >= 4096) return error(at, fmt::format("vertex {}: a line of 4,096 bytes or more", v));
+    const size_t n = split(line, tok, 3);
+    double x = 0;
+    if (n < 3 || !io::parse_double(tok[0], x) || !io::parse_double(tok[1], x) || !io::parse_double(tok[2], x))
+      return error(at, fmt::format("vertex {} of {}: expected 'x y z', found '{}'", v, nv, io::printable(line)));
+  }
+  for (unsigned long long f = 0; f < nf; ++f) {
+    if (!next_line(line, at)) return error(t.size(), fmt::format("unexpected end of file, expected face {} of {}", f, nf));
+    if (line.size() >= 4096) return error(at, fmt::format("face {}: a line of 4,096 bytes or more", f));
+    const size_t n = split(line, tok, 11);
+    unsigned long long k = 0;
+    if (n == 0 || !digits(tok[0], k) || k < 3 || k > 9 || n < k + 1)
+      return error(at, fmt::format("face {}: expected '<n> <n vertex indices>' with n from 3 to 9, found '{}'", f,
+                                   io::printable(line)));
+    for (unsigned long long j = 1; j <= k; ++j) {
+      unsigned long long idx = 0;
+      long long any = 0;
+      if (!digits(tok[j], idx)) {
+        if (io::parse_int(tok[j], any))
+          return error(at, fmt::format("face {} has vertex index {} out of range [0, {})", f, any, nv));
+        return error(at, fmt::format("face {}: expected a vertex index, found '{}'", f, io::printable(tok[j])));
+      }
+      if (idx >= nv) return error(at, fmt::format("face {} has vertex index {} out of range [0, {})", f, idx, nv));
     }
   }
   return {};
