@@ -285,8 +285,12 @@ TEST(MeshErrors, GmshFilesThatWouldCrashGmsh) {
   // Tags up to 10^12 (Gmsh sizes a dense array by the largest tag).
   const auto tags = replaced("tags.msh", "$Nodes\n2 8 1 8", "$Nodes\n2 8 1 1000000000000");
   EXPECT_EQ(palpate::load_tet(tags).error().message,
-            tags.string() + ":10: $Nodes tags run up to 1000000000000, far beyond the file's size (expected at most "
-                            "1000000)");
+            tags.string() + ":10: $Nodes tags run from 1 to 1000000000000, beyond the file's size (expected 0 to at "
+                            "most 1000000)");
+  // The smallest tag far out of range too (found by fuzzing: 8e63 overflowed palpate's own conversion).
+  const auto low = replaced("low.msh", "$Nodes\n2 8 1 8", "$Nodes\n2 8 8e63 8");
+  EXPECT_EQ(palpate::load_tet(low).error().message,
+            low.string() + ":10: $Nodes tags run from 8e+63 to 8, beyond the file's size (expected 0 to at most 1000000)");
   const auto many = replaced("many.msh", "$Elements\n2 7 1 7", "$Elements\n2 7000000000 1 7");
   EXPECT_EQ(palpate::load_tet(many).error().message,
             many.string() + ":31: $Elements promises 7000000000 elements, more than the file can hold");

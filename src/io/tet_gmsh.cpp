@@ -717,6 +717,11 @@ int section_counts(const std::string& t, size_t at, bool binary_v4, double (&v)[
   return std::sscanf(t.c_str() + at, "%lf %lf %lf %lf", &v[0], &v[1], &v[2], &v[3]);
 }
 
+// A count or tag read as a double, for messages: whole digits up to 10^15, then 3 significant ones.
+std::string number_shown(double v) {
+  return std::fabs(v) < 1e15 ? fmt::format("{:.0f}", v) : fmt::format("{:.3g}", v);
+}
+
 // Format 4: the file read as Gmsh 4.8's reader for it (GModel::_readMSH4) reads it: sections found
 // as for format 2 but by 1023-byte fgets reads, and a section ending at the first line, after what
 // its reader read, whose bytes from the second on open "End<name>" (measured on Gmsh 4.8.4: a
@@ -808,10 +813,10 @@ Status check_msh4(const std::string& t, double max_count, const std::string& nam
       if (n >= 2 && (v[1] < 0 || v[1] > max_count))
         return error(line + 1, fmt::format("{} promises {:.0f} {}, more than the file can hold", shown, v[1],
                                            nodes ? "nodes" : "elements"));
-      if (n == 4 && (v[3] > max_tag || v[2] < 0))
-        return error(line + 1, fmt::format("{} tags run up to {:.0f}, far beyond the file's size (expected at most "
+      if (n == 4 && !(v[2] >= 0 && v[2] <= max_tag && v[3] >= 0 && v[3] <= max_tag))  // NaN too
+        return error(line + 1, fmt::format("{} tags run from {} to {}, beyond the file's size (expected 0 to at most "
                                            "{:.0f})",
-                                           shown, v[3], max_tag));
+                                           shown, number_shown(v[2]), number_shown(v[3]), max_tag));
       if (nodes && n == 4) {
         node_min = static_cast<std::uint64_t>(v[2]);
         node_max = static_cast<std::uint64_t>(v[3]);
