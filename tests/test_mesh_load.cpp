@@ -182,8 +182,9 @@ TEST(MeshLoad, CubeInEveryTetFormat) {
 // make_gmsh41.cpp): empty node blocks, physical points, $PartitionedEntities — none refused by the
 // checks made against damaged files, and each the same unit box.
 TEST(MeshLoad, GmshFilesAsGmshWritesThem) {
+  // Named physical groups ($PhysicalNames) in every file; format 2.2 as well, ASCII and binary.
   for (const char* name : {"box_gmsh41_saveall.msh", "box_gmsh41_saveall_binary.msh", "box_gmsh41_partitioned.msh",
-                           "box_gmsh41_partitioned_binary.msh"}) {
+                           "box_gmsh41_partitioned_binary.msh", "box_gmsh22_named.msh", "box_gmsh22_named_binary.msh"}) {
     SCOPED_TRACE(name);
     const auto m = palpate::load_tet(test_mesh(name));
     ASSERT_TRUE(m.ok()) << m.error().message;
