@@ -16,6 +16,13 @@ namespace {
 using palpate::test::ScratchDir;
 using palpate::test::data_mesh;
 
+// `text` with its first `from` replaced by `to`, written as `name` in `dir`.
+std::filesystem::path write_replaced(ScratchDir& dir, std::string text, const std::string& name,
+                                     const std::string& from, const std::string& to) {
+  text.replace(text.find(from), from.size(), to);
+  return dir.write(name, text);
+}
+
 // The message starts with the file's path (for TetGen, the .node or .ele of the same name: the
 // error names whichever of the pair is wrong).
 bool names_file(const std::string& msg, const std::filesystem::path& file) {
@@ -268,9 +275,7 @@ TEST(MeshErrors, GmshFilesThatWouldCrashGmsh) {
   ScratchDir dir;
   const std::string v4 = palpate::test::read_text(palpate::test::test_mesh("cube_v4.msh"));
   const auto replaced = [&](const std::string& name, const std::string& from, const std::string& to) {
-    std::string text = v4;
-    text.replace(text.find(from), from.size(), to);
-    return dir.write(name, text);
+    return write_replaced(dir, v4, name, from, to);
   };
   // The $Nodes header promises 1 node, its blocks hold 8 (Gmsh wrote past its array).
   const auto total = replaced("total.msh", "$Nodes\n2 8 1 8", "$Nodes\n2 1 1 8");
@@ -460,9 +465,7 @@ TEST(MeshErrors, PlyCountsBeyondTheFileAreRefused) {
   ScratchDir dir;
   const std::string cube = palpate::test::read_text(palpate::test::test_mesh("cube.ply"));
   const auto claiming = [&](const std::string& name, const std::string& from, const std::string& to) {
-    std::string text = cube;
-    text.replace(text.find(from), from.size(), to);
-    return dir.write(name, text);
+    return write_replaced(dir, cube, name, from, to);
   };
   const auto huge = claiming("huge.ply", "element vertex 8", "element vertex 100000000");
   EXPECT_EQ(palpate::load_surface(huge).error().message,
@@ -498,9 +501,7 @@ TEST(MeshErrors, PlyStructureAssimpWouldMisreadIsRefused) {
   ScratchDir dir;
   const std::string cube = palpate::test::read_text(palpate::test::test_mesh("cube.ply"));
   const auto with = [&](const std::string& name, const std::string& from, const std::string& to) {
-    std::string text = cube;
-    text.replace(text.find(from), from.size(), to);
-    return dir.write(name, text);
+    return write_replaced(dir, cube, name, from, to);
   };
   const std::string xyz = "property float x\nproperty float y\nproperty float z\n";
   const auto two_vertex = with("two_vertex.ply", "element face 6",
