@@ -522,6 +522,10 @@ TEST(MeshErrors, PlyStructureAssimpWouldMisreadIsRefused) {
   const auto junk = with("junk.ply", "property float z", "prat z");
   EXPECT_EQ(palpate::load_surface(junk).error().message,
             junk.string() + ":7: expected comment, obj_info, element, property or end_header, found 'prat z'");
+  const auto comment = with("comment.ply", "property float y", "comment y next\nproperty float y");
+  EXPECT_EQ(palpate::load_surface(comment).error().message,
+            comment.string() + ":7: a property after a comment or obj_info line (assimp 5.2 ends the element's "
+                               "properties at such a line and drops the rest)");
   // The body: a face line with a missing index, a vertex line with an extra value.
   const auto short_face = with("short_face.ply", "4 0 2 3 1", "4 0 2 3");
   EXPECT_NE(palpate::load_surface(short_face).error().message.find(": element face 0: expected 4 int values for "

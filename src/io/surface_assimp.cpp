@@ -89,7 +89,7 @@ Status check_ply_header(const std::filesystem::path& file) {
     std::vector<Property> properties;
   };
   std::vector<Element> elements;
-  bool ascii = false, big_endian = false, header_cr = false;
+  bool ascii = false, big_endian = false, header_cr = false, properties_open = false;
   const std::string name = file.string();
   const auto error = [&](int at, const std::string& what) { return Error{fmt::format("{}:{}: {}", name, at, what)}; };
   while (std::getline(in, line)) {
@@ -122,7 +122,10 @@ Status check_ply_header(const std::filesystem::path& file) {
       big_endian = tok[1] == "binary_big_endian";
       continue;
     }
-    if (n >= 1 && (tok[0] == "comment" || tok[0] == "obj_info")) continue;
+    if (n >= 1 && (tok[0] == "comment" || tok[0] == "obj_info")) {
+      properties_open = false;  // assimp ends an element's properties at any line that is not one
+      continue;
+    }
     if (n == 3 && tok[0] == "element") {
       long long count = 0;
       if (!io::parse_int(tok[2], count) || count < 0 || tok[2].front() == '+')  // assimp reads "+6" as 0
@@ -151,10 +154,14 @@ Status check_ply_header(const std::filesystem::path& file) {
                                          io::printable(tok[1])));
       if (faces && !seen({"vertex"})) return error(number, "the face element comes before 'element vertex'");
       elements.push_back({std::string(tok[1]), static_cast<unsigned long long>(count), 0, 0, number, {}});
+      properties_open = true;
       continue;
     }
     if (tok[0] == "property" && ((n == 3 && tok[1] != "list") || (n == 5 && tok[1] == "list"))) {
       if (elements.empty()) return error(number, "a property before any element");
+      if (!properties_open)
+        return error(number, "a property after a comment or obj_info line (assimp 5.2 ends the element's properties "
+                             "at such a line and drops the rest)");
       const bool list = n == 5;
       const std::string_view type = list ? tok[3] : tok[1];
       if (ply_type_size(type) == 0 || (list && !ply_integer_type(tok[2])))
