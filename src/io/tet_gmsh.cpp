@@ -404,14 +404,12 @@ std::string section_shown(std::string_view name) {
 }
 
 // The format version Gmsh 4.8 reads a file as (GModel::readMSH): 1 for a file whose first line
-// opens $NOD or $NOE, otherwise the first number after the first section named $MeshFormat...;
-// `binary`: its file type. False when Gmsh would find no version.
-bool gmsh_version(std::string_view t, double& version, bool& binary, int& data_size) {
+// opens $NOD or $NOE, otherwise the first number after the first section named $MeshFormat;
+// false when Gmsh would find no version.
+bool gmsh_version(std::string_view t, double& version) {
   StdioWalk f(t);
   std::string str;
   version = 1.0;
-  binary = false;
-  data_size = 8;
   if (!f.gets(str)) return false;
   if (starts(after_first(str), "NOD") || starts(after_first(str), "NOE")) return true;
   StdioWalk again(t);
@@ -421,10 +419,8 @@ bool gmsh_version(std::string_view t, double& version, bool& binary, int& data_s
       if (!again.gets(str) || again.eof()) break;
     if (again.eof()) return false;
     if (starts(after_first(str), "MeshFormat")) {
-      int format = 0;
-      if (!again.gets(str) || std::sscanf(str.c_str(), "%lf %d %d", &version, &format, &data_size) != 3) return false;
-      binary = format != 0;
-      return true;
+      int format = 0, data_size = 0;  // read as Gmsh does, which wants all three; each walk reads them again
+      return again.gets(str) && std::sscanf(str.c_str(), "%lf %d %d", &version, &format, &data_size) == 3;
     }
     do {
       if (!again.gets(str) || again.eof()) break;
@@ -848,11 +844,9 @@ Status check_msh_counts(const std::filesystem::path& file) {
   const std::string& t = *text;
   const size_t bytes = t.size();
   const std::string name = file.string();
-  // The version and file type Gmsh will read the file as.
+  // The format version Gmsh will read the file as (each walk reads the file type itself).
   double version = 1.0;
-  bool is_binary = false;
-  int data_size = 8;
-  if (!gmsh_version(t, version, is_binary, data_size))
+  if (!gmsh_version(t, version))
     return Error{fmt::format("{}: expected a $MeshFormat section with the format's version, file type and data size",
                              name)};
   // Generous bounds: a node or element takes at least 4 bytes of text, and tags may be sparse,
