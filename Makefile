@@ -5,7 +5,7 @@ CLI    := $(BUILD)/apps/palpate/palpate
 SCENE  ?= data/scenes/cvc.yaml
 DEMO_OUT ?= out/demo
 
-.PHONY: all deps configure build test demo bench fuzz fuzz-build asan-test tsan-test format tidy clean
+.PHONY: all deps configure build test golden demo bench fuzz fuzz-build asan-test tsan-test format tidy clean
 
 all: build
 
@@ -22,6 +22,11 @@ build: configure
 
 test: build
 	ctest --preset $(PRESET)
+
+# Re-record the golden force traces of every shipped scene (tests/golden/README.md): only on
+# purpose, when a change is meant to change what the hand feels; say why in the commit.
+golden: build
+	$(BUILD)/tests/palpate_golden_record tests/golden data/scenes $(GOLDEN_SCENES)
 
 # A scene with an ultrasound probe (cvc.yaml) also gives its images: 13, one every 1.07 s of its run.
 demo: build

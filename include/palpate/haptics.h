@@ -250,6 +250,8 @@ class HapticLoop {
   // Column names of the CSV (the figures of each tissue are prefixed with its name; each extra
   // tool's pose, force and safety events follow them, prefixed with the tool's name).
   const std::vector<std::string>& columns() const;
+  // Names of the kept series' columns, in series() order (empty without a recording).
+  const std::vector<std::string>& series_columns() const;
 
   struct Impl;
 

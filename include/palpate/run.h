@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,12 @@ struct RunOptions {
   // pushes it (the scene's `vein` tissue handed over through a SnapshotTissue, as frames are);
   // drawn on this thread, off the haptic thread. Needs the scene's `probe`.
   int ultrasound = 0;
+  // Every tick's kept series row in full precision (double): the needle's time, pose and force and
+  // each extra tool's pose and force (HapticLoop::finish_recording lists them;
+  // RunSummary::series_columns names them), streamed back from the recorder's file after the run,
+  // off the tick path, before the plots. For golden force traces (tests/golden) and analyses that
+  // need more than run.csv's nine significant digits. Null: not called.
+  std::function<void(std::span<const double> row)> series_row;
 };
 
 struct RunFrame {
@@ -79,6 +86,7 @@ struct RunSummary {
   std::vector<LoopToolStats> tools;               // the extra tools (the probe): force, safety
   std::vector<LoopPhysicsStats> physics;          // tissues on their own thread: steps, step time, late
   std::vector<std::string> tissue_names;          // the tissues' names, in the loop's order
+  std::vector<std::string> series_columns;        // the columns RunOptions::series_row gets
 };
 
 // What a run of `ticks` ticks recording `columns` columns writes and holds (estimates): run.csv's

@@ -151,6 +151,7 @@ struct HapticLoop::Impl {
   std::vector<std::unique_ptr<ToolSlot>> tools;  // extra tools, in create()'s order
   SampleExchange needle_sample;                  // tool 0's newest tick
   size_t kept_series = 0;                        // columns the recorder keeps in memory
+  std::vector<std::string> series_columns;       // their names, in series() order
 
   Impl(Device& d, const LoopSettings& settings)
       : device(d), s(settings), safety(d.limits(), settings.ramp_in) {}
@@ -490,6 +491,7 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
       for (size_t c = 0; c + 1 < Impl::kToolColumns; ++c) ro.keep_columns.push_back(tp->col + c);
     }
     m.kept_series = ro.keep_columns.size();
+    for (size_t c : ro.keep_columns) m.series_columns.push_back(m.columns[c]);
     auto rec = Recorder::open(settings.csv, m.columns, formats, ro);
     if (!rec) return rec.error();
     m.recorder = std::move(*rec);
@@ -654,5 +656,6 @@ Status HapticLoop::for_each_series_row(const std::function<void(std::span<const 
 std::uint64_t HapticLoop::series_rows() const { return impl_->recorder ? impl_->recorder->kept_rows() : 0; }
 const std::vector<HapticLoop::Event>& HapticLoop::events() const { return impl_->events; }
 const std::vector<std::string>& HapticLoop::columns() const { return impl_->columns; }
+const std::vector<std::string>& HapticLoop::series_columns() const { return impl_->series_columns; }
 
 }  // namespace palpate

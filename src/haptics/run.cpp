@@ -497,6 +497,9 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   // streamed back from the recorder's file in two passes (first contact, then every tick), so a run
   // of any length holds at most PlotSeriesBuilder::kMaxRows rows in memory.
   const std::uint64_t n = loop.series_rows();  // t, tool_x..z, force_x..z, force_N, tool_qw..qz
+  summary.series_columns = loop.series_columns();
+  if (options.series_row && n > 0)
+    if (Status s = loop.for_each_series_row(options.series_row); !s) return s.error();
   if (options.plots && n > 0) {
     std::uint64_t k = 0, contact = n;
     Vec3 tip0 = Vec3::Zero(), first = Vec3::Zero();
