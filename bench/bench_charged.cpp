@@ -6,6 +6,7 @@
 #include <palpate/charged.h>
 #include <palpate/device.h>
 #include <palpate/scene.h>
+#include <palpate/simulation.h>
 #include <palpate/tissue.h>
 
 #include <benchmark/benchmark.h>
@@ -81,9 +82,9 @@ void BM_ChargedTick(benchmark::State& bs) {
 // BM_CvcSceneTick: data/scenes/cvc.yaml, the generated neck (anatomy: neck): skin and fat over
 // the neck's curve, the internal jugular vein and the carotid as tubes, every one a charged-particle
 // layer; the 18 G needle at 45 deg in at 5 mm/s to the vein's centre, held, withdrawn (the
-// scene's duration / dt ticks). Either way the tissues are built as src/haptics/run.cpp builds
-// them (make_tissue, then link_layers so each presses the ones below) and the device with
-// make_device (the scripted device gets the scene's tool axis). One benchmark iteration replays
+// scene's duration / dt ticks). Either way the scene is built by Simulation::build, as every front
+// end builds it (each tissue pressing the ones below, the scripted device on the scene's tool
+// axis). One benchmark iteration replays
 // the whole script from rest; each tick builds the ToolState as the haptic loop does
 // (src/haptics/loop.cpp) and does the loop's work for the tissues: step every tissue, read its
 // figures, drain its events. That work is timed per tick with steady_clock (the device read,
@@ -91,28 +92,25 @@ void BM_ChargedTick(benchmark::State& bs) {
 // are the counters tick_*_us (one steady_clock read per tissue plus one, ~25 ns each here, are
 // inside the timed span); <tissue>_median_us / _p99_us are each tissue's share of the tick.
 // The benchmark's own time is the whole sweep.
+// The scene as every front end builds it (Simulation::build: tissues made and stacked, the
+// scripted device on the scene's tool axis); the benchmark steps its tissues itself.
 struct NeedleScene {
+  std::unique_ptr<Simulation> sim;
   SceneDef scene;
-  std::vector<std::unique_ptr<Tissue>> tissues;
-  std::unique_ptr<Device> device;
+  std::vector<Tissue*> tissues;
+  Device* device = nullptr;
 };
 
 Result<NeedleScene> load_needle_scene(const char* file) {
   auto scene = load_scene(std::filesystem::path(PALPATE_DATA_DIR) / "scenes" / file);
   if (!scene) return scene.error();
+  auto sim = Simulation::build(*scene);
+  if (!sim) return sim.error();
   NeedleScene out;
-  out.scene = std::move(*scene);
-  for (int i = 0; i < static_cast<int>(out.scene.tissues.size()); ++i) {
-    auto t = make_tissue(out.scene, i);
-    if (!t) return t.error();
-    out.tissues.push_back(std::move(*t));
-  }
-  std::vector<Tissue*> stack;
-  for (auto& t : out.tissues) stack.push_back(t.get());
-  link_layers(stack);  // stacked layers press on each other (scene order: outside in)
-  auto device = make_device(out.scene);
-  if (!device) return device.error();
-  out.device = std::move(*device);
+  out.sim = std::move(*sim);
+  out.scene = out.sim->scene();
+  for (size_t i = 0; i < out.sim->tissue_count(); ++i) out.tissues.push_back(&out.sim->tissue(i));
+  out.device = out.sim->tools().front().device;
   return out;
 }
 

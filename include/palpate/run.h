@@ -114,5 +114,13 @@ class Tissue;
 Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<Tissue>> tissues,
                              const RunOptions& options = {});
 
+// The two halves of run_scene: the Simulation a run builds (headless or realtime, snapshots where
+// frames or ultrasound images need them), and the run of a built one (outputs under options.out).
+// A Simulation built with other options runs too, as long as frames come with snapshots.
+class Simulation;
+struct SimulationOptions;
+SimulationOptions run_simulation_options(const SceneDef& scene, const RunOptions& options);
+Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options);
+
 
 }  // namespace palpate

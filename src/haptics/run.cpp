@@ -4,6 +4,7 @@
 #include <palpate/run.h>
 #include <palpate/render.h>
 #include <palpate/safety.h>
+#include <palpate/simulation.h>
 #include <palpate/snapshot_tissue.h>
 #include <palpate/tissue.h>
 #include <palpate/ultrasound.h>
@@ -90,40 +91,38 @@ RunFootprint run_footprint(std::uint64_t ticks, size_t columns) {
 }
 
 Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options) {
-  std::vector<std::unique_ptr<Tissue>> tissues;
-  for (int i = 0; i < static_cast<int>(scene.tissues.size()); ++i) {
-    auto t = make_tissue(scene, i);
-    if (!t) return t.error();
-    tissues.push_back(std::move(*t));
-  }
-  return run_scene(scene, std::move(tissues), options);
+  auto sim = Simulation::build(scene, run_simulation_options(scene, options));
+  if (!sim) return sim.error();
+  return run_simulation(**sim, options);
 }
 
 Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<Tissue>> tissues,
                              const RunOptions& options) {
-  namespace fs = std::filesystem;
+  auto sim = Simulation::build(scene, std::move(tissues), run_simulation_options(scene, options));
+  if (!sim) return sim.error();
+  return run_simulation(**sim, options);
+}
 
-  // --- build: everything that allocates or reads files happens here, before the first tick.
-  {
-    std::vector<Tissue*> stack;
-    for (auto& t : tissues) stack.push_back(t.get());
-    link_layers(stack);  // stacked layers press on each other (scene order: outside in)
-  }
+SimulationOptions run_simulation_options(const SceneDef& scene, const RunOptions& options) {
+  SimulationOptions so;
+  so.realtime = options.realtime;
+  so.realtime_priority = options.realtime_priority;
+  so.physics_dt = options.physics_dt;
+  // Frames: each tissue hands its drawn state over through a SnapshotTissue (allocation-free on the
+  // stepping thread). Ultrasound images show the vein's wall tented where the needle pushes it: the
+  // scene's `vein` tissue hands its particles over the same way.
+  bool vein = false;
+  for (const TissueDef& t : scene.tissues) vein = vein || t.role == "vein";
+  so.snapshots = options.frames > 0 || (options.ultrasound > 0 && vein);
+  return so;
+}
+
+Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
+  namespace fs = std::filesystem;
+  const SceneDef& scene = sim.scene();
   const std::string where = scene.file.empty() ? std::string("scene") : scene.file.string();
-  // A headless run goes as fast as it can (2,000 ticks while a Touch's servo ran 104 frames): the
-  // device in the hand gets forces of simulated, not real, time. Refused before it is opened.
-  if (scene.device.kind == "openhaptics" && !options.realtime)
-    return Error{where + ": device kind 'openhaptics' needs a realtime run (`palpate run --realtime`, "
-                         "RunOptions::realtime): a headless run is not paced by the wall clock"};
-  if (scene.probe && scene.probe->device.kind == "openhaptics" && !options.realtime)
-    return Error{where + ": probe.device kind 'openhaptics' needs a realtime run (`palpate run --realtime`, "
-                         "RunOptions::realtime): a headless run is not paced by the wall clock"};
-  auto device = make_device(scene);
-  if (!device) return device.error();
-  Device& dev = **device;
-  if (!(scene.dt > 0)) return Error{where + ": dt must be > 0 s"};
   const double dt = scene.dt;
-  const auto ticks = static_cast<std::uint64_t>(std::llround(scene.duration / dt));
+  const std::uint64_t ticks = sim.duration_ticks();
   const fs::path out = options.out.empty() ? scene.output : options.out;
   if (options.frames < 0 || std::uint64_t(options.frames) > ticks)
     return Error{where + ": frames must be between 0 and the run's " + std::to_string(ticks) +
@@ -141,37 +140,18 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   if (options.ultrasound > 0 && !scene.probe)
     return Error{where + ": ultrasound images need a 'probe' section in the scene (the probe's device, "
                  "footprint and imaging; docs/scene-format.md), and this scene has none"};
-
-  // The probe: a second tool in the other hand, its own device and safety filter, pressing the
-  // neck (NeckCompression: the force on the probe; the image reads the same model).
-  std::unique_ptr<Device> probe_device;
-  std::unique_ptr<NeckCompression> probe_model;
-  if (scene.probe) {
-    if (!scene.anatomy) return Error{where + ": probe: needs an 'anatomy' (the ultrasound images the generated neck)"};
-    auto pd = make_device(scene.probe->device, scene.probe->axis, where, "probe.device");
-    if (!pd) return pd.error();
-    probe_device = std::move(*pd);
-    probe_model = std::make_unique<NeckCompression>(*scene.anatomy, *scene.probe);
-  }
-
-  // Frames: each tissue hands its drawn state over through a SnapshotTissue (allocation-free on
-  // the stepping thread); frame k is taken after frame_target(k) ticks have run.
   const auto nframes = static_cast<size_t>(options.frames);
   const auto nus = static_cast<size_t>(options.ultrasound);
-  // Ultrasound images show the vein's wall tented where the needle pushes it: the scene's `vein`
-  // tissue (its first) hands its particles over the same way, at rest and at each image's tick.
-  int vein = -1;
-  if (nus > 0 && tissues.size() == scene.tissues.size())
-    for (size_t i = 0; i < scene.tissues.size() && vein < 0; ++i)
-      if (scene.tissues[i].role == "vein") vein = int(i);
+  if (nframes > 0 && !sim.options().snapshots)
+    return Error{where + ": frames need a simulation built with snapshots (run_simulation_options)"};
+  const size_t ntissues = sim.tissue_count();
   std::vector<SnapshotTissue*> snaps;
-  if (nframes > 0 || vein >= 0) {
-    for (auto& t : tissues) {
-      auto wrapped = std::make_unique<SnapshotTissue>(std::move(t));
-      snaps.push_back(wrapped.get());
-      t = std::move(wrapped);
-    }
-  }
+  if (sim.options().snapshots)
+    for (size_t i = 0; i < ntissues; ++i) snaps.push_back(sim.snapshot(i));
+  const SimulationTool* probe_tool = sim.tool(ToolRole::ultrasound_probe);
+  // The vein (the scene's first `vein` tissue) for the ultrasound images.
+  const int vein = nus > 0 && ntissues == scene.tissues.size() && sim.options().snapshots ? sim.tissue_with_role("vein") : -1;
+
   // Image k of n is taken after target(k, n) ticks: the first after the first tick, the last at the end.
   auto target_of = [&](size_t k, size_t n) -> std::uint64_t {
     if (n == 1) return ticks;
@@ -204,8 +184,8 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
     const fs::path file = out / fmt::format("frame_{:0{}}.png", k, digits);
     const std::optional<Vec3> axis = tool.stepped ? std::optional<Vec3>(tool.axis) : std::nullopt;
     std::optional<FrameProbe> probe;
-    if (scene.probe && loop_ptr) {
-      const ToolSample ps = loop_ptr->tool_sample(1);
+    if (scene.probe && probe_tool && loop_ptr) {
+      const ToolSample ps = loop_ptr->tool_sample(probe_tool->loop_index);
       probe = FrameProbe{*scene.probe, ps.position, ps.orientation};
     }
     if (Status s = render_frame_png(scene, frame_snaps, tool.tip, force, file, options.frame_options, axis,
@@ -220,7 +200,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   // memory or on the disk is refused here, not hours in.
   {
     size_t columns = 15;
-    for (const auto& t : tissues) columns += t->figure_names().size();
+    for (size_t i = 0; i < ntissues; ++i) columns += sim.tissue(i).figure_names().size();
     const RunFootprint fp = run_footprint(ticks, columns);
     const std::string what = fmt::format("duration {} s at dt {} s is {} ticks", scene.duration, dt, ticks);
     const double disk = free_bytes(out);
@@ -232,36 +212,11 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   }
   if (Status s = clear_run_outputs(out); !s) return s.error();
 
-  LoopSettings ls;
-  ls.dt = dt;
-  ls.realtime = options.realtime;
-  ls.try_realtime_priority = options.realtime_priority;
-  ls.max_ticks = ticks;
-  ls.ramp_in = scene.device.ramp_in;
-  if (scene.device.coupling == "direct")
-    ls.coupling = Coupling::direct;
-  else if (scene.device.coupling == "virtual")
-    ls.coupling = Coupling::virtual_;
-  else
-    return Error{where + ": device.coupling '" + scene.device.coupling +
-                 "' is not one of direct | virtual"};
-  ls.proxy_mass = scene.device.proxy_mass;
-  ls.watchdog.overrun_margin = scene.device.overrun_margin;
-  ls.watchdog.stall_timeout = scene.device.stall_timeout;
-  ls.tool = scene.tool;
-  ls.csv = out / "run.csv";
-  ls.outcome = build_outcome_model(scene);
-  std::vector<LoopTissue> lt;
-  for (size_t i = 0; i < tissues.size(); ++i)
-    lt.push_back({tissues[i].get(), i < options.physics_dt.size() ? options.physics_dt[i]
-                                    : i < scene.tissues.size()    ? scene_physics_dt(scene.tissues[i])
-                                                                  : 0.0});  // tissues the caller built
-  std::vector<LoopTool> extra;
-  if (probe_device) extra.push_back({"probe", probe_device.get(), probe_model.get(), scene.probe->device.ramp_in});
-  auto built = HapticLoop::create(dev, std::move(lt), ls, std::move(extra));
+  auto built = sim.open_loop(out / "run.csv");
   if (!built) return built.error();
   HapticLoop& loop = **built;
   loop_ptr = &loop;
+  const Device& dev = *sim.tools().front().device;
 
   // Ultrasound images: image k after us_target(k) ticks, from the newest tick's probe and needle
   // (the loop's tool samples; in a headless run exactly that tick), on this thread.
@@ -288,7 +243,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
       }
       imager->set_vein_wall(vein_rest, vein_snap->current().points);
     }
-    const ToolSample needle = loop.tool_sample(0), probe = loop.tool_sample(1);
+    const ToolSample needle = loop.tool_sample(0), probe = loop.tool_sample(probe_tool->loop_index);
     NeedlePose np;
     np.present = scene.tool.kind == "needle" && needle.valid;
     np.tip = needle.position;
@@ -420,7 +375,7 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   summary.metrics = st.metrics;
   for (const HapticLoop::Event& e : loop.events())
     summary.events.push_back({e.time, e.kind,
-                              e.tissue >= 0 && size_t(e.tissue) < tissues.size() ? tissues[size_t(e.tissue)]->name() : "",
+                              e.tissue >= 0 && size_t(e.tissue) < ntissues ? sim.tissue(size_t(e.tissue)).name() : "",
                               e.depth, e.force});
   summary.csv = out / "run.csv";
   summary.summary_json = out / "summary.json";
@@ -473,16 +428,16 @@ Result<RunSummary> run_scene(const SceneDef& scene, std::vector<std::unique_ptr<
   }
   j["recorder_dropped"] = st.recorder_dropped;
   j["tissues"] = nlohmann::json::array();
-  for (const auto& t : tissues) {
-    j["tissues"].push_back(t->name());
-    summary.tissue_names.push_back(t->name());
+  for (size_t i = 0; i < ntissues; ++i) {
+    j["tissues"].push_back(sim.tissue(i).name());
+    summary.tissue_names.push_back(sim.tissue(i).name());
   }
   // The tissues stepped on their own thread (multi-rate): did the physics keep its rate, and how
   // many haptic ticks were rendered from the compliant contact patch.
   summary.physics = st.physics;
   j["physics"] = nlohmann::json::array();
   for (const LoopPhysicsStats& p : st.physics)
-    j["physics"].push_back({{"tissue", p.tissue >= 0 && size_t(p.tissue) < tissues.size() ? tissues[size_t(p.tissue)]->name() : ""},
+    j["physics"].push_back({{"tissue", p.tissue >= 0 && size_t(p.tissue) < ntissues ? sim.tissue(size_t(p.tissue)).name() : ""},
                             {"rate_hz", p.period > 0 ? 1.0 / p.period : 0.0},
                             {"steps", p.steps},
                             {"step_time_s", {{"median", p.step.median}, {"p99", p.step.p99}, {"max", p.step.max}}},

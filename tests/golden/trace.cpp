@@ -186,6 +186,19 @@ bool read_trace(const std::filesystem::path& file, Trace& trace, std::string& er
   return true;
 }
 
+Differences largest_differences(const Trace& golden, const Trace& got) {
+  Differences d;
+  for (size_t c = 0; c < golden.columns.size() && c < got.columns.size(); ++c) {
+    double& mx = is_force(golden.columns[c]) ? d.force : d.pose;
+    for (size_t i = 0; i < golden.values[c].size() && i < got.values[c].size(); ++i) {
+      const double a = golden.values[c][i], b = got.values[c][i];
+      const double e = std::isnan(a) && std::isnan(b) ? 0.0 : std::abs(a - b);
+      if (!(e <= mx)) mx = std::isnan(e) ? INFINITY : e;
+    }
+  }
+  return d;
+}
+
 std::string compare(const Trace& golden, const Trace& got, const Tolerance& tol) {
   if (golden.columns != got.columns) {
     std::string g, o;

@@ -55,5 +55,11 @@ struct Tolerance {
 // naming the first tick and column that differ, both values, how many values differ and the largest
 // difference of each kind.
 std::string compare(const Trace& golden, const Trace& got, const Tolerance& tol);
+// The largest difference of each kind over every tick (traces of the same columns and ticks).
+struct Differences {
+  double force = 0;  // N
+  double pose = 0;   // m (or unitless, a quaternion's)
+};
+Differences largest_differences(const Trace& golden, const Trace& got);
 
 }  // namespace palpate::golden

@@ -9,11 +9,13 @@
 #include "screenshot.h"
 #include "tool_tilt.h"
 #include "ultrasound_feed.h"
+#include "view_setup.h"
 #include <palpate/snapshot_tissue.h>
 
 #include <palpate/device.h>
 #include <palpate/haptics.h>
 #include <palpate/outcome.h>
+#include <palpate/simulation.h>
 #include <palpate/surface.h>
 #include <palpate/tissue.h>
 #include <palpate/ultrasound.h>
@@ -211,7 +213,7 @@ class Viewer {
   int run();
 
  private:
-  int build_tissues();
+  int build_simulation();  // the mouse's devices, then the scene's Simulation over them
   Status start_loop();
   void stop_loop();
   Vec3 start_position() const;
@@ -221,7 +223,6 @@ class Viewer {
   void draw_scene(int fb_width, int fb_height);
   void draw_panels();
   void finish_rebuild();
-  void relink_layers();  // stacked layers press on each other: tell each which lie above it
   std::optional<double> pick_surface(const Vec3& origin, const Vec3& dir) const;
   bool scripted_probe_step(int width, int height);
   bool take_screenshot(const std::filesystem::path& file, int fb_width, int fb_height);
@@ -244,13 +245,14 @@ class Viewer {
 
   SceneDef scene_;
   ViewerOptions options_;
-  // Destruction order matters: the loop stops first, then the feeder, then tissues and device.
+  // Destruction order matters: the loop stops first, then the feeders, then the Simulation (its
+  // tissues and loop), then the devices it was handed.
   std::unique_ptr<VirtualDevice> device_;
-  std::vector<std::unique_ptr<SnapshotTissue>> tissues_;
+  std::vector<SnapshotTissue*> tissues_;  // the Simulation's, each handing its drawn state over
   std::vector<TissueView> views_;
   std::vector<bool> drawn_;  // per tissue: whether its surface was drawn this frame
   std::unique_ptr<PoseFeeder> feeder_;
-  std::unique_ptr<HapticLoop> loop_;
+  HapticLoop* loop_ = nullptr;  // the Simulation's, while it runs
   std::string loop_error_;
 
   // The ultrasound probe (scene_.probe), the other hand: its own virtual device (its own safety
@@ -258,7 +260,7 @@ class Viewer {
   // on UltrasoundFeed's thread from the two feeders' poses and shown in a texture.
   std::unique_ptr<VirtualDevice> probe_device_;
   std::unique_ptr<PoseFeeder> probe_feeder_;
-  std::unique_ptr<NeckCompression> probe_model_;
+  std::unique_ptr<Simulation> sim_;  // after the devices it drives: destroyed before them
   std::unique_ptr<UltrasoundFeed> us_feed_;
   UltrasoundImage us_image_;
   std::vector<std::uint8_t> us_rgba_;
@@ -326,57 +328,37 @@ Viewer::~Viewer() {
   if (rebuild_.valid()) rebuild_.wait();
 }
 
-int Viewer::build_tissues() {
+int Viewer::build_simulation() {
   if (scene_.tissues.empty()) {
     fmt::print(stderr, "palpate view: {}: the scene has no tissues to show\n", scene_.file.string());
     return 2;
   }
-  for (int i = 0; i < static_cast<int>(scene_.tissues.size()); ++i) {
-    auto t = make_tissue(scene_, i);
-    if (!t) {
-      fmt::print(stderr, "palpate view: {}\n", t.error().message);
-      return 2;
-    }
-    tissues_.push_back(std::make_unique<SnapshotTissue>(std::move(*t)));
+  device_ = std::make_unique<VirtualDevice>(device_limits(scene_.device));
+  if (scene_.probe && scene_.anatomy) probe_device_ = std::make_unique<VirtualDevice>(device_limits(scene_.probe->device));
+  auto sim = Simulation::build(scene_, view_simulation_options(options_, device_.get(), probe_device_.get()));
+  if (!sim) {
+    fmt::print(stderr, "palpate view: {}\n", sim.error().message);
+    return 2;
   }
-  relink_layers();
+  sim_ = std::move(*sim);
+  for (size_t i = 0; i < sim_->tissue_count(); ++i) tissues_.push_back(sim_->snapshot(i));
   views_.resize(tissues_.size());
   drawn_.assign(tissues_.size(), false);
   edits_ = scene_.tissues;
   return 0;
 }
 
-void Viewer::relink_layers() {
-  std::vector<Tissue*> stack;
-  for (auto& t : tissues_) stack.push_back(t.get());
-  link_layers(stack);
-}
-
 Status Viewer::start_loop() {
-  std::vector<LoopTissue> list;
-  for (size_t i = 0; i < tissues_.size(); ++i)
-    list.push_back(LoopTissue{tissues_[i].get(), i < scene_.tissues.size() ? scene_physics_dt(scene_.tissues[i]) : 0.0});
-  LoopSettings s;
-  s.dt = scene_.dt;
-  s.realtime = true;
-  s.ramp_in = scene_.device.ramp_in;
-  s.tool = scene_.tool;
-  s.outcome = build_outcome_model(scene_);  // the outcome panel's figures, tracked on the loop's tick
-  if (options_.overrun_margin >= 0) s.watchdog.overrun_margin = options_.overrun_margin;
-  std::vector<LoopTool> tools;
-  if (probe_device_)
-    tools.push_back({"probe", probe_device_.get(), probe_model_.get(), scene_.probe->device.ramp_in});
-  auto loop = HapticLoop::create(*device_, std::move(list), s, std::move(tools));
+  auto loop = sim_->open_loop();
   if (!loop) return loop.error();
-  Status started = (*loop)->start();
-  if (!started) return started;
-  loop_ = std::move(*loop);
+  if (Status started = (*loop)->start(); !started) return started;
+  loop_ = *loop;
   return {};
 }
 
 void Viewer::stop_loop() {
   if (loop_) loop_->stop();
-  loop_.reset();
+  loop_ = nullptr;
 }
 
 Vec3 Viewer::start_position() const {
@@ -574,7 +556,6 @@ bool Viewer::probe_input(double x, double y, double dx, double dy, int width, in
 
 void Viewer::start_probe() {
   const ProbeDef& p = *scene_.probe;
-  probe_device_ = std::make_unique<VirtualDevice>(device_limits(p.device));
   // It starts where its scripted device would (its first waypoint), or on the skin at the origin.
   Vec3 start = Vec3::Zero();
   Quat facing = Quat::Identity();
@@ -586,7 +567,6 @@ void Viewer::start_probe() {
   probe_feeder_ = std::make_unique<PoseFeeder>(*probe_device_, start, options_.tool_speed);
   probe_feeder_->set_orientation_target(facing);
   probe_press_ = std::max(0.0, -start.y());
-  probe_model_ = std::make_unique<NeckCompression>(*scene_.anatomy, p);
   for (size_t i = 0; i < scene_.tissues.size() && i < tissues_.size() && vein_ < 0; ++i)
     if (scene_.tissues[i].role == "vein") vein_ = int(i);
   if (vein_ >= 0) vein_rest_ = tissues_[size_t(vein_)]->current().points;  // built, not yet stepped
@@ -743,8 +723,12 @@ void Viewer::finish_rebuild() {
   // The hand-over: the haptic thread is stopped (joined) before the old tissue goes, so it never
   // steps a tissue being replaced; forces ramp in again from zero when the loop restarts.
   stop_loop();
-  tissues_[static_cast<size_t>(i)] = std::make_unique<SnapshotTissue>(std::move(*built));
-  relink_layers();  // the layers below held the old one: they press from the new one now
+  // The layers below held the old one: the Simulation relinks them to press from the new one.
+  if (Status replaced = sim_->replace_tissue(static_cast<size_t>(i), std::move(*built), edits_[static_cast<size_t>(i)]); !replaced) {
+    rebuild_message_ = replaced.error().message;
+    return;
+  }
+  tissues_[static_cast<size_t>(i)] = sim_->snapshot(static_cast<size_t>(i));
   views_[static_cast<size_t>(i)] = TissueView{};
   scene_.tissues[static_cast<size_t>(i)] = edits_[static_cast<size_t>(i)];
   Status started = start_loop();
@@ -890,13 +874,12 @@ bool Viewer::take_screenshot(const std::filesystem::path& file, int fb_width, in
 }
 
 int Viewer::run() {
-  if (int code = build_tissues()) return code;
+  if (int code = build_simulation()) return code;
   const CameraDef cam = scene_.camera.value_or(CameraDef{});
   camera_ = OrbitCamera::from(cam);
   scene_size_ = camera_.distance;
   arrow_metres_per_newton_ = static_cast<float>(0.25 * scene_size_);  // m per √N
 
-  device_ = std::make_unique<VirtualDevice>(device_limits(scene_.device));
   feeder_ = std::make_unique<PoseFeeder>(*device_, start_position(), options_.tool_speed);
   if (scene_.probe && scene_.anatomy) start_probe();
 

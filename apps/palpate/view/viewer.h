@@ -23,7 +23,7 @@ struct ViewerOptions {
   std::filesystem::path screenshot;  // written when exiting; also the F12 / S key's file
   std::optional<ProbeRequest> probe; // press the tool in at start
   int width = 0, height = 0;         // window size in pixels; 0 = the scene camera's
-  double overrun_margin = -1;        // s, the haptic watchdog's margin; < 0 = the library's default
+  double overrun_margin = -1;        // s, the haptic watchdog's margin; < 0 = the scene's device.overrun_margin
   double tool_speed = 0.05;          // m/s, fastest the mouse moves the virtual device
   int resolution = 6;                // drawn surface: segments per Bézier patch edge
   double settle = 0.5;               // s a scripted probe holds still before the exit screenshot
