@@ -118,6 +118,10 @@ int run_command(const RunArgs& a) {
     fmt::print("ticks      {} at {} ms\n", s.ticks, s.dt * 1e3);
     fmt::print("step time  median {:.1f} us, p99 {:.1f} us, max {:.1f} us\n", s.step_median * 1e6,
                s.step_p99 * 1e6, s.step_max * 1e6);
+    std::string stages;
+    for (size_t i = 0; i < kTickStageCount; ++i)
+      stages += fmt::format("{}{} {:.1f}", i ? ", " : "", tick_stage_name(TickStage(i)), s.stages[i].median * 1e6);
+    fmt::print("stages     median us: {}\n", stages);
     if (s.realtime)
       fmt::print("period     median {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; {} deadline misses\n",
                  s.period.median * 1e3, s.period.p99 * 1e3, s.period.max * 1e3, s.deadline_misses);

@@ -97,6 +97,19 @@ struct LoopTissue {
 // that sets one, else 0 (every tick on the haptic thread).
 double scene_physics_dt(const TissueDef& tissue) noexcept;
 
+// The tick's stages, in order (docs/architecture.md): each is timed every tick into LoopStats::stages.
+enum class TickStage : std::uint8_t {
+  read_devices,      // every tool's device: pose, velocity, buttons (a bad read holds the last good pose)
+  step_tissues,      // inline tissues step; multi-rate ones render their local contact model
+  render_forces,     // tool 0's force from the tissues (or the proxy's coupling); the others' own laws
+  watchdog,          // a tick past its deadline sends zero
+  safety_and_write,  // each tool's safety filter, then its device
+  record,            // the row to the recorder, the tissues' events, the outcome
+  live_figures,      // counters, forces and tool samples for other threads
+};
+inline constexpr size_t kTickStageCount = 7;
+const char* tick_stage_name(TickStage stage) noexcept;
+
 struct LoopSettings {
   double dt = 0.001;                  // s, the haptic tick
   bool realtime = true;               // wall-clock paced on its own thread; false = run_headless()
@@ -114,6 +127,8 @@ struct LoopSettings {
                                       // tracked over each tick (build_outcome_model); empty = none
   size_t recorder_capacity = 8192;    // rows in the recorder's ring
   bool try_realtime_priority = true;  // ask for SCHED_FIFO (needs privileges; fine without)
+  bool time_stages = true;            // time each stage of every tick (LoopStats::stages; ~80 ns a
+                                      // tick, docs/BENCHMARKS.md); false only to measure that cost
 };
 
 // Median / p99 / max of a duration, in seconds.
@@ -171,6 +186,7 @@ struct LoopStats {
   std::uint64_t ticks = 0;
   TimingFigures period;               // s, wake-up to wake-up (realtime only)
   TimingFigures step;                 // s, one tick's work: read, step, render, filter, write
+  std::array<TimingFigures, kTickStageCount> stages{};  // s, each stage's share of it (TickStage order)
   std::uint64_t deadline_misses = 0;  // realtime ticks whose work ended after the next deadline
   std::uint64_t resyncs = 0;          // times the loop fell > 10 ticks behind and reset its clock
   SafetyCounters safety;

@@ -7,6 +7,7 @@
 #include <palpate/safety.h>
 #include <palpate/scene.h>
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
@@ -68,6 +69,7 @@ struct RunSummary {
   bool interrupted = false;                       // RunOptions::interrupt ended the run early
   double dt = 0;                                  // s
   double step_median = 0, step_p99 = 0, step_max = 0;  // s, wall time of one tick's work
+  std::array<TimingFigures, kTickStageCount> stages{};  // s, each of the tick's stages (TickStage order)
   double max_force = 0;                           // N, largest force sent to the device
   bool realtime = false;
   TimingFigures period;                           // s, wake-up to wake-up (realtime runs)

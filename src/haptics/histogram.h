@@ -63,4 +63,41 @@ class LatencyHistogram {
   std::atomic<double> max_{0};
 };
 
+// The same buckets over raw counts (a time-stamp counter's ticks) for the tick's stage timing,
+// where every nanosecond of the timing itself counts: add() is an index, one bucket's relaxed
+// increment and a max, no floating point; the total is summed at read time. Counts convert to
+// seconds when read (`seconds_per_count`). One writer, any readers (as LatencyHistogram).
+class CountHistogram {
+ public:
+  void add(std::uint64_t count) noexcept {
+    auto& b = buckets_[static_cast<size_t>(LatencyHistogram::index(count))];
+    b.store(b.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+    if (count > max_.load(std::memory_order_relaxed)) max_.store(count, std::memory_order_relaxed);
+  }
+  double max(double seconds_per_count) const noexcept {
+    return double(max_.load(std::memory_order_relaxed)) * seconds_per_count;
+  }
+  // Seconds below which a fraction p of the samples lie, to the bucket's midpoint (never above max).
+  double percentile(double p, double seconds_per_count) const noexcept {
+    std::uint64_t total = 0;
+    for (const auto& b : buckets_) total += b.load(std::memory_order_relaxed);
+    if (total == 0) return 0;
+    const double want = p * double(total);
+    std::uint64_t seen = 0;
+    const double m = max(seconds_per_count);
+    for (int i = 0; i < LatencyHistogram::kBuckets; ++i) {
+      seen += buckets_[static_cast<size_t>(i)].load(std::memory_order_relaxed);
+      if (double(seen) >= want && seen > 0) {
+        const double mid = 0.5 * (LatencyHistogram::lower(i) + LatencyHistogram::lower(i + 1)) * seconds_per_count;
+        return mid < m ? mid : m;
+      }
+    }
+    return m;
+  }
+
+ private:
+  std::array<std::atomic<std::uint64_t>, LatencyHistogram::kBuckets> buckets_{};
+  std::atomic<std::uint64_t> max_{0};
+};
+
 }  // namespace palpate

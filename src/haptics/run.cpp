@@ -366,6 +366,7 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
   summary.step_median = st.step.median;
   summary.step_p99 = st.step.p99;
   summary.step_max = st.step.max;
+  summary.stages = st.stages;
   summary.max_force = st.max_force;
   summary.realtime = options.realtime;
   summary.period = st.period;
@@ -393,6 +394,11 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
   j["coupling"] = scene.device.coupling;
   j["step_time_s"] = {{"median", summary.step_median}, {"p99", summary.step_p99},
                       {"max", summary.step_max}};
+  // Where the tick's time goes: each stage's median, p99 and max (docs/architecture.md).
+  j["tick_stages_s"] = nlohmann::json::object();
+  for (size_t i = 0; i < kTickStageCount; ++i)
+    j["tick_stages_s"][tick_stage_name(TickStage(i))] = {
+        {"median", st.stages[i].median}, {"p99", st.stages[i].p99}, {"max", st.stages[i].max}};
   if (options.realtime) {
     j["period_s"] = {{"median", st.period.median}, {"p99", st.period.p99}, {"max", st.period.max}};
     j["deadline_misses"] = st.deadline_misses;

@@ -804,6 +804,10 @@ void Viewer::draw_panels() {
                   st.realtime_priority ? "SCHED_FIFO" : "normal priority");
       ImGui::Text("period  med %.0f  p99 %.0f  max %.0f us", 1e6 * st.period.median, 1e6 * st.period.p99, 1e6 * st.period.max);
       ImGui::Text("step    med %.1f  p99 %.1f  max %.1f us", 1e6 * st.step.median, 1e6 * st.step.p99, 1e6 * st.step.max);
+      // Where the millisecond goes: each stage of the tick (TickStage), median and p99.
+      for (size_t i = 0; i < kTickStageCount; ++i)
+        ImGui::Text("  %-16s med %6.1f  p99 %6.1f us", tick_stage_name(TickStage(i)), 1e6 * st.stages[i].median,
+                    1e6 * st.stages[i].p99);
       ImGui::Text("deadline misses %llu  resyncs %llu", static_cast<unsigned long long>(st.deadline_misses),
                   static_cast<unsigned long long>(st.resyncs));
       ImGui::Text("zeroed: overrun %llu  stalled %llu  failed %llu",

@@ -1,0 +1,262 @@
+// tick.cpp — one haptic tick as a sequence of named, timed stages over one array of tools:
+// read devices → step tissues → render forces → watchdog → safety and write → record → live figures
+// (as mj_step's pipeline). No allocation, locks, exceptions or I/O: the recorder's ring takes the row.
+#include "haptics/loop_impl.h"
+
+#include "haptics/pacing.h"
+
+#include <cmath>
+
+#if defined(__x86_64__)
+#include <x86intrin.h>
+#endif
+
+namespace palpate {
+
+namespace {
+
+// Row layout of run.csv; tissue figures follow the fixed columns (and the proxy's, if any).
+enum Col : size_t { kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kTick, kQw, kQx, kQy, kQz, kButtons, kEvents };
+
+}  // namespace
+
+const char* tick_stage_name(TickStage stage) noexcept {
+  switch (stage) {
+    case TickStage::read_devices: return "read_devices";
+    case TickStage::step_tissues: return "step_tissues";
+    case TickStage::render_forces: return "render_forces";
+    case TickStage::watchdog: return "watchdog";
+    case TickStage::safety_and_write: return "safety_and_write";
+    case TickStage::record: return "record";
+    case TickStage::live_figures: return "live_figures";
+  }
+  return "?";
+}
+
+std::uint64_t StageClock::now() noexcept {
+#if defined(__x86_64__)
+  return __rdtsc();
+#else
+  return static_cast<std::uint64_t>(monotonic_ns());
+#endif
+}
+
+double StageClock::seconds_per_count() noexcept {
+#if defined(__x86_64__)
+  static const double spc = [] {
+    const std::int64_t n0 = monotonic_ns();
+    const std::uint64_t c0 = __rdtsc();
+    std::int64_t n1 = n0;
+    while (n1 - n0 < 1'000'000) n1 = monotonic_ns();
+    const std::uint64_t c1 = __rdtsc();
+    return c1 > c0 ? double(n1 - n0) * 1e-9 / double(c1 - c0) : 1e-9;
+  }();
+  return spc;
+#else
+  return 1e-9;
+#endif
+}
+
+// A device's pose this tick. A failed read, a non-finite pose or velocity, or a degenerate
+// orientation (no rotation can be read from it) holds the last good pose at rest: the needle
+// neither jumps back to the scene's axis inside the tissue nor turns on garbage. That tool's force
+// goes to zero this tick (its own fault only).
+static void read_pose(HapticLoop::Impl::ToolSlot& x, double t) noexcept {
+  const bool ok = x.def.device->read(t, x.state);
+  const double qn = x.state.orientation.norm();
+  if (!ok || !x.state.position.allFinite() || !x.state.velocity.allFinite() || !std::isfinite(qn) || !(qn > 1e-6)) {
+    x.read_fault = TickFault::device_failed;
+    x.state.position = x.last_good_position;
+    x.state.velocity.setZero();
+    x.state.orientation = x.last_good_orientation;
+  } else {
+    if (qn != 1.0) x.state.orientation.coeffs() /= qn;
+    x.read_fault = TickFault::none;
+    x.last_good_position = x.state.position;
+    x.last_good_orientation = x.state.orientation;
+  }
+}
+
+// 1. Every device's pose; the tool the tissues see (the HIP, or the proxy with virtual coupling).
+void HapticLoop::Impl::read_devices(TickState& ts) noexcept {
+  for (auto& x : tools) read_pose(*x, ts.t);
+  const ToolSlot& n = needle();
+  ts.fault = n.read_fault;
+  const bool virtual_coupling = s.coupling == Coupling::virtual_;
+  tool.time = ts.t;
+  tool.tip = virtual_coupling ? proxy.position : n.state.position;
+  tool.velocity = virtual_coupling ? proxy.velocity : n.state.velocity;
+  // The needle points along the device's orientation applied to its device-frame axis, for the
+  // HIP and the proxy alike. With no rotation it is the scene's axis exactly (no round-off), so
+  // a device without orientation gives the same ticks as a fixed axis, bit for bit.
+  tool.axis = needle_axis(scene_axis, n.state.orientation);
+  tool.grasp = (n.state.buttons & 1u) != 0;
+}
+
+// 2. Tissues: inline ones step now; multi-rate ones render their linearised contact.
+void HapticLoop::Impl::step_tissues(TickState& ts) noexcept {
+  const std::int64_t now = ts.deadline_ns ? monotonic_ns() : 0;
+  Vec3 f_rendered = Vec3::Zero();
+  for (Slot& sl : slots) {
+    std::span<double> figs(row.data() + sl.figure_offset, sl.figure_count);
+    if (sl.worker) {
+      Vec3 f;
+      const TickFault tf = sl.worker->render(tool, now, headless_now ? 0.0 : s.watchdog.stall_timeout, f, figs);
+      if (tf != TickFault::none && ts.fault == TickFault::none) ts.fault = tf;
+      f_rendered += f;
+      ts.j_rendered += sl.worker->jacobian();
+    } else {
+      ts.f_inline += sl.tissue->step(tool, s.dt);
+      // A step that reset its tissue returns an ordinary zero: count it and restart the ramp.
+      if (sl.tissue->last_step_failed() && ts.fault == TickFault::none) ts.fault = TickFault::step_failed;
+      sl.tissue->figures(figs);
+    }
+  }
+  ts.f_tissue = ts.f_inline + f_rendered;
+}
+
+// 3. Each tool's force: tool 0 the HIP's (or the proxy's coupling force), the others their own law.
+void HapticLoop::Impl::render_forces(TickState& ts) noexcept {
+  ToolSlot& n = needle();
+  n.request = ts.f_tissue;
+  if (s.coupling == Coupling::virtual_) {
+    if (ts.f_tissue.allFinite()) {
+      proxy_estimator.update(tool.tip, ts.f_inline);
+      n.request = step_proxy(coupling, proxy, n.state.position, n.state.velocity, ts.f_tissue,
+                             proxy_estimator.jacobian() + ts.j_rendered, s.dt);
+    }
+    if (!ts.f_tissue.allFinite() || !proxy.position.allFinite() || ts.fault != TickFault::none) {
+      proxy.position = n.state.position;  // start again at the device, at rest
+      proxy.velocity.setZero();
+      proxy_estimator.reset();
+    }
+  }
+  for (size_t i = 1; i < tools.size(); ++i) {
+    ToolSlot& x = *tools[i];
+    x.request = x.read_fault == TickFault::none ? x.def.model->force(x.state.position, x.state.orientation, ts.t)
+                                                : Vec3(Vec3::Zero());
+  }
+}
+
+// 4. Watchdog: work past its deadline by more than the margin sends zero.
+void HapticLoop::Impl::watchdog(TickState& ts) noexcept {
+  if (ts.deadline_ns && ts.fault == TickFault::none &&
+      double(monotonic_ns() - ts.deadline_ns) * 1e-9 > s.watchdog.overrun_margin)
+    ts.fault = TickFault::overrun;
+}
+
+// 5. Each tool's force through its own safety filter (finite, clamped, rate-limited, ramped in,
+// zero on a fault), then to its device. An overrun (the tick as a whole ran late) zeroes every
+// tool; tool 0's other faults (a failed step, a stalled physics thread, its device) only tool 0.
+void HapticLoop::Impl::safety_and_write(TickState& ts) noexcept {
+  ToolSlot& n = needle();
+  n.sent = n.safety.filter(n.request, s.dt, ts.fault);
+  n.def.device->write(n.sent, Vec3::Zero());
+  for (size_t i = 1; i < tools.size(); ++i) {
+    ToolSlot& x = *tools[i];
+    TickFault f = x.read_fault;
+    if (f == TickFault::none && ts.fault == TickFault::overrun) f = TickFault::overrun;
+    x.sent = x.safety.filter(f == TickFault::none ? x.request : Vec3(Vec3::Zero()), s.dt, f);
+    x.def.device->write(x.sent, Vec3::Zero());
+  }
+}
+
+// 6. The tick's row to the recorder, the tissues' events, the outcome after them.
+void HapticLoop::Impl::record(TickState& ts) noexcept {
+  const ToolSlot& n = needle();
+  const DeviceState& st = n.state;
+  double* r = row.data();
+  r[kT] = ts.t;
+  r[kToolX] = st.position.x(), r[kToolY] = st.position.y(), r[kToolZ] = st.position.z();
+  r[kForceX] = n.sent.x(), r[kForceY] = n.sent.y(), r[kForceZ] = n.sent.z();
+  ts.force_norm = n.sent.norm();
+  r[kForceN] = ts.force_norm;
+  r[kTick] = double(k);
+  r[kQw] = st.orientation.w(), r[kQx] = st.orientation.x();
+  r[kQy] = st.orientation.y(), r[kQz] = st.orientation.z();
+  r[kButtons] = double(st.buttons);
+  r[kEvents] = double(n.safety.last_events());
+  if (proxy_col) {
+    r[proxy_col] = proxy.position.x(), r[proxy_col + 1] = proxy.position.y();
+    r[proxy_col + 2] = proxy.position.z();
+  }
+  for (size_t i = 1; i < tools.size(); ++i) {
+    const ToolSlot& x = *tools[i];
+    double* c = row.data() + x.col;
+    c[0] = x.state.position.x(), c[1] = x.state.position.y(), c[2] = x.state.position.z();
+    c[3] = x.state.orientation.w(), c[4] = x.state.orientation.x();
+    c[5] = x.state.orientation.y(), c[6] = x.state.orientation.z();
+    c[7] = x.sent.x(), c[8] = x.sent.y(), c[9] = x.sent.z();
+    c[10] = x.sent.norm();
+    c[11] = double(x.safety.last_events());
+  }
+  if (recorder) {
+    if (headless_now)
+      recorder->push_wait(row);
+    else
+      recorder->push(row);
+  }
+  for (size_t i = 0; i < slots.size(); ++i) {
+    size_t n_ev = 0;
+    while ((n_ev = slots[i].worker ? slots[i].worker->drain_events(event_buf) : slots[i].tissue->drain_events(event_buf)) > 0)
+      for (size_t e = 0; e < n_ev; ++e) {
+        const TissueEvent& ev = event_buf[e];
+        outcome_event(s.outcome, outcome, ev.kind, int(i), ev.time, tool.tip, tool.axis);
+        if (recorder) (void)recorder->push_event({ev.time, ev.kind, int(i), ev.depth, ev.force});
+      }
+  }
+  // The outcome after this tick's events: where the tip is now (as the tissues saw it).
+  if (outcome_tick(s.outcome, outcome, ts.t, tool.tip, tool.axis, ts.force_norm) && recorder)
+    (void)recorder->push_event({ts.t, "flashback", outcome.flashback_tissue, outcome.flashback_depth,
+                                outcome.flashback_force});
+}
+
+// 7. Live figures for other threads: counts, forces, safety counters, metrics, each tool's sample.
+void HapticLoop::Impl::live_figures(TickState& ts) noexcept {
+  ++k;
+  ticks.set(k);
+  for (size_t i = 0; i < tools.size(); ++i) {
+    ToolSlot& x = *tools[i];
+    const double fn = i == 0 ? ts.force_norm : x.sent.norm();
+    if (fn > x.max_force.get()) x.max_force.set(fn);
+    x.fx.set(x.sent.x()), x.fy.set(x.sent.y()), x.fz.set(x.sent.z());
+    x.px.set(x.state.position.x()), x.py.set(x.state.position.y()), x.pz.set(x.state.position.z());
+    x.publish_counters();
+    ToolSample smp;
+    smp.time = ts.t, smp.tick = k;
+    smp.position = i == 0 ? tool.tip : x.state.position;
+    smp.orientation = x.state.orientation;
+    if (i == 0) smp.axis = tool.axis;
+    smp.force = x.sent;
+    x.sample.publish(smp);
+  }
+  publish_metrics();
+}
+
+std::uint64_t HapticLoop::Impl::tick(std::int64_t deadline_ns) noexcept {
+  TickState ts;
+  ts.t = double(k + 1) * s.dt;
+  ts.deadline_ns = deadline_ns;
+  if (!s.time_stages) {
+    read_devices(ts), step_tissues(ts), render_forces(ts), watchdog(ts);
+    safety_and_write(ts), record(ts), live_figures(ts);
+    return 0;
+  }
+  const std::uint64_t first = StageClock::now();
+  std::uint64_t last = first;
+  auto done = [&](TickStage stage) {
+    const std::uint64_t now = StageClock::now();
+    stages.h[size_t(stage)].add(now - last);
+    last = now;
+  };
+  read_devices(ts), done(TickStage::read_devices);
+  step_tissues(ts), done(TickStage::step_tissues);
+  render_forces(ts), done(TickStage::render_forces);
+  watchdog(ts), done(TickStage::watchdog);
+  safety_and_write(ts), done(TickStage::safety_and_write);
+  record(ts), done(TickStage::record);
+  live_figures(ts), done(TickStage::live_figures);
+  return last - first;
+}
+
+}  // namespace palpate
