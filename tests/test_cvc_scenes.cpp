@@ -6,6 +6,7 @@
 #include <palpate/outcome.h>
 #include <palpate/run.h>
 #include <palpate/scene.h>
+#include <palpate/simulation.h>
 
 #include <gtest/gtest.h>
 
@@ -36,7 +37,9 @@ Shipped run_shipped(const std::string& name) {
   auto r = run_scene(*scene, o);
   EXPECT_TRUE(r.ok()) << r.error().message;
   std::filesystem::remove_all(o.out);
-  return {*scene, *r};
+  auto expanded = expand_anatomy(*scene);  // the tissues the run built, for their materials
+  EXPECT_TRUE(expanded.ok()) << expanded.error().message;
+  return {*expanded, *r};
 }
 
 long punctures(const RunSummary& r, const std::string& tissue) {
@@ -53,10 +56,15 @@ double puncture_force(const SceneDef& s, const std::string& tissue) {
 }  // namespace
 
 TEST(CvcScenes, TheNeckIsGeneratedWithPublishedDefaults) {
-  auto s = load_scene(PALPATE_SOURCE_DIR "/data/scenes/cvc.yaml");
+  auto loaded = load_scene(PALPATE_SOURCE_DIR "/data/scenes/cvc.yaml");
+  ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+  ASSERT_TRUE(loaded->anatomy.has_value());
+  EXPECT_TRUE(loaded->tissues.empty());  // the loader reads the anatomy; the build generates it
+  auto s = expand_anatomy(*loaded);
   ASSERT_TRUE(s.ok()) << s.error().message;
-  ASSERT_TRUE(s->anatomy.has_value());
   ASSERT_EQ(s->tissues.size(), 4u);
+  EXPECT_TRUE(s->anatomy_expanded);
+  EXPECT_EQ(expand_anatomy(*s)->tissues.size(), 4u);  // once only
   const char* roles[] = {"skin", "fat", "vein", "artery"};
   for (size_t i = 0; i < 4; ++i) EXPECT_EQ(s->tissues[i].role, roles[i]);
   const NeckDef& n = *s->anatomy;
@@ -73,9 +81,13 @@ TEST(CvcScenes, TheNeckIsGeneratedWithPublishedDefaults) {
   EXPECT_NEAR(s->tissues[2].patch->radius, v.radius, 1e-15);
   EXPECT_NEAR((s->tissues[2].patch->center - v.axis_point).norm(), v.radius, 1e-12);
   EXPECT_NEAR((s->tissues[3].patch->center - a.axis_point).norm(), a.radius, 1e-12);
-  // A bad variant is refused with what is wrong.
-  auto bad = parse_scene("anatomy: {kind: neck, skin_thickness: 0.005, ijv_depth: 0.004}\n", "v.yaml");
+  // A bad variant is refused with what is wrong, naming the scene's file and the anatomy's line,
+  // when it is built (Simulation::build expands the anatomy).
+  auto parsed = parse_scene("anatomy: {kind: neck, skin_thickness: 0.005, ijv_depth: 0.004}\n", "v.yaml");
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  auto bad = expand_anatomy(*parsed);
   ASSERT_FALSE(bad.ok());
+  EXPECT_FALSE(Simulation::build(*parsed).ok());
   EXPECT_EQ(bad.error().message,
             "v.yaml:1: anatomy: skin_thickness (0.005 m) must be less than ijv_depth (0.004 m): the vein lies under "
             "the skin");
@@ -181,4 +193,76 @@ TEST(CvcScenes, TheCalibratedSceneReproducesThePublishedFigures) {
   EXPECT_EQ(r->metrics.outcome, Outcome::vein);
   EXPECT_EQ(r->metrics.skin_punctures, 1);
   EXPECT_EQ(r->metrics.passes, 1);
+}
+
+// Every layer of the generated neck takes material keys from the scene (anatomy.layers), each
+// range-checked at load as a tissue's own material is; keys left out keep the calibrated default.
+TEST(CvcScenes, EachLayersMaterialIsSettableFromTheScene) {
+  auto parsed = parse_scene(
+      "anatomy:\n"
+      "  kind: neck\n"
+      "  layers:\n"
+      "    skin: {puncture_force: 2.0}\n"
+      "    ijv: {max_displacement: 0.004, friction_per_length: 12}\n",
+      "v.yaml");
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  auto plain = expand_anatomy(*parse_scene("anatomy: {kind: neck}\n", "p.yaml"));
+  auto s = expand_anatomy(*parsed);
+  ASSERT_TRUE(s.ok() && plain.ok());
+  ASSERT_EQ(s->tissues.size(), 4u);
+  EXPECT_EQ(s->tissues[0].charged.puncture_force, 2.0);
+  EXPECT_EQ(s->tissues[0].charged.max_displacement, plain->tissues[0].charged.max_displacement);  // untouched
+  EXPECT_EQ(s->tissues[0].line, 4);
+  EXPECT_EQ(s->tissues[2].charged.max_displacement, 0.004);
+  EXPECT_EQ(s->tissues[2].charged.friction_per_length, 12);
+  EXPECT_EQ(s->tissues[2].charged.puncture_force, plain->tissues[2].charged.puncture_force);
+  EXPECT_EQ(s->tissues[1].charged.puncture_force, plain->tissues[1].charged.puncture_force);  // fat: no keys
+
+  auto error_of = [](const std::string& yaml) {
+    auto p = parse_scene(yaml, "v.yaml");
+    if (!p) return p.error().message;
+    auto e = expand_anatomy(*p);
+    return e ? std::string("accepted") : e.error().message;
+  };
+  EXPECT_EQ(error_of("anatomy: {kind: neck, layers: {vein: {puncture_force: 1}}}\n"),
+            "v.yaml:1: anatomy.layers.vein: not a layer of the neck; expected skin, fat, ijv or cca");
+  EXPECT_NE(error_of("anatomy: {kind: neck, layers: {skin: {puncture_force: -1}}}\n")
+                .find("v.yaml:1: anatomy.layers.skin.puncture_force"),
+            std::string::npos);
+  EXPECT_NE(error_of("anatomy: {kind: neck, layers: {fat: {stiffness: 3}}}\n").find("'stiffness' is a mass_spring key"),
+            std::string::npos);
+  EXPECT_NE(error_of("anatomy: {kind: neck, layers: {cca: {max_separation: 0.0001}}}\n")
+                .find("v.yaml:1: anatomy.layers.cca.max_separation: 0.0001 m must exceed the layer's spacing"),
+            std::string::npos);
+  EXPECT_NE(error_of("anatomy: {kind: neck}\ntissues:\n  - {name: skin, patch: {}}\n")
+                .find("v.yaml:3: tissues[0].name: duplicate tissue name 'skin'"),
+            std::string::npos);
+  // The vein must lie inside the region: its half width against the vein's radius, not its diameter.
+  EXPECT_EQ(error_of("anatomy: {kind: neck, ijv_diameter: 0.03}\n"), "accepted");
+  EXPECT_NE(error_of("anatomy: {kind: neck, ijv_diameter: 0.03, ijv_x: 0.016}\n").find("must lie inside the region"),
+            std::string::npos);
+}
+
+// The shipped CVC run with its skin's puncture force changed from the scene: the skin gives at it.
+TEST(CvcScenes, AChangedLayerIsFeltInTheRun) {
+  std::ifstream in(PALPATE_SOURCE_DIR "/data/scenes/cvc.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const std::string at = "anatomy:\n";
+  const size_t pos = yaml.find(at);
+  ASSERT_NE(pos, std::string::npos);
+  yaml.insert(pos + at.size(), "  layers:\n    skin: {puncture_force: 2.0}\n");  // calibrated: 1.22 N
+  auto scene = parse_scene(yaml, "cvc-soft-skin.yaml", PALPATE_SOURCE_DIR "/data/scenes");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  RunOptions o;
+  o.out = std::filesystem::temp_directory_path() / "palpate_cvc_soft_skin";
+  o.plots = false;
+  auto r = run_scene(*scene, o);
+  std::filesystem::remove_all(o.out);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const auto skin = std::find_if(r->events.begin(), r->events.end(),
+                                 [](const RunEvent& e) { return e.kind == "puncture" && e.tissue == "skin"; });
+  ASSERT_NE(skin, r->events.end());
+  EXPECT_NEAR(skin->force, 2.0, 0.05 * 2.0);
 }

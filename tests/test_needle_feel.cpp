@@ -2,6 +2,7 @@
 // on the shipped needle scene and variants of it: no grit before a puncture at any speed, the same
 // force–depth curve at any tick and any particle spacing, punctures at their set forces, withdrawal
 // that is friction and no catch, no rate limiting in a normal run while a fault still trips it.
+#include <palpate/anatomy.h>
 #include <palpate/run.h>
 #include <palpate/scene.h>
 #include <palpate/tissue.h>
@@ -249,7 +250,9 @@ TEST(NeedleFeel, TheShippedRunIsNeverRateLimitedWhileAFaultStillIs) {
 TEST(NeedleFeel, NoGritOnTheCvcNeckAtEverySpeed) {
   auto loaded = load_scene(PALPATE_SOURCE_DIR "/data/scenes/cvc.yaml");
   ASSERT_TRUE(loaded.ok()) << loaded.error().message;
-  const SceneDef& scene = *loaded;
+  auto expanded = expand_anatomy(*loaded);  // the neck's layers
+  ASSERT_TRUE(expanded.ok()) << expanded.error().message;
+  const SceneDef& scene = *expanded;
   const Vec3 start = scene.device.waypoints.front().position;
   const double travel = (scene.device.waypoints[2].position - start).norm();  // to the vein's centre
   for (double speed : {0.001, 0.01, 0.02}) {

@@ -79,6 +79,13 @@ int run_command(const RunArgs& a) {
     if (a.device.empty()) scene->device.kind = "replay";
   }
   if (!a.coupling.empty()) scene->device.coupling = a.coupling;
+  // The anatomy's layers generated now (the run would do it too), so every tissue is counted below.
+  if (auto expanded = expand_anatomy(*scene); !expanded) {
+    fmt::print(stderr, "palpate run: {}\n", expanded.error().message);
+    return 2;
+  } else {
+    *scene = std::move(*expanded);
+  }
   RunOptions opt;
   if (!a.out.empty()) opt.out = a.out;
   opt.realtime = a.realtime;

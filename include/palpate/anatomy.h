@@ -25,6 +25,13 @@ struct VesselGeometry {
 // with the calibrated materials of docs/cvc.md. Errors name `where` and the key.
 Result<std::vector<TissueDef>> neck_tissues(const NeckDef& neck, const std::string& where = "anatomy");
 
+// The scene with its anatomy's tissues generated (neck_tissues, with anatomy.layers' materials
+// applied) in front of its own; unchanged when it has no anatomy or is expanded already. Errors
+// (a neck that cannot be built, a material rule that spans keys, a tissue named as a generated
+// layer) name the scene's file, line and key. Simulation::build calls it; so may a front end that
+// needs the tissue list first.
+Result<SceneDef> expand_anatomy(const SceneDef& scene);
+
 // Where the neck's vessels are (their rest geometry) and the skin's height at a given x.
 VesselGeometry neck_vein(const NeckDef& neck);
 VesselGeometry neck_artery(const NeckDef& neck);

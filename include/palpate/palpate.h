@@ -1,6 +1,7 @@
 // palpate/palpate.h — everything in palpate's public API.
 #pragma once
 
+#include <palpate/anatomy.h>
 #include <palpate/charged.h>
 #include <palpate/core.h>
 #include <palpate/device.h>
@@ -11,6 +12,7 @@
 #include <palpate/run.h>
 #include <palpate/safety.h>
 #include <palpate/scene.h>
+#include <palpate/simulation.h>
 #include <palpate/snapshot_tissue.h>
 #include <palpate/spring.h>
 #include <palpate/surface.h>

@@ -2,6 +2,9 @@
 // internal jugular vein and the common carotid artery as two-sided tubes (docs/cvc.md).
 #include <palpate/anatomy.h>
 
+#include <cstdlib>
+#include <variant>
+
 #include <cmath>
 #include <sstream>
 
@@ -118,7 +121,8 @@ Result<std::vector<TissueDef>> neck_tissues(const NeckDef& n, const std::string&
   if (!(n.skin_thickness < n.ijv_depth))
     return Error{where + ": skin_thickness (" + num(n.skin_thickness) + " m) must be less than ijv_depth (" +
                  num(n.ijv_depth) + " m): the vein lies under the skin"};
-  if (!(std::abs(n.ijv_x) + n.ijv_diameter < n.width / 2))
+  // The vein's far wall inside the region's half width: |x| + its radius (not its diameter).
+  if (!(std::abs(n.ijv_x) + n.ijv_diameter / 2 < n.width / 2))
     return Error{where + ": the vein (ijv_x " + num(n.ijv_x) + " m, diameter " + num(n.ijv_diameter) +
                  " m) must lie inside the region's width " + num(n.width) + " m"};
   if (!(n.width < n.neck_radius * kPi))
@@ -146,6 +150,44 @@ Result<std::vector<TissueDef>> neck_tissues(const NeckDef& n, const std::string&
   out.push_back(fat);
   out.push_back(tube("ijv", "vein", vein, kVeinNormal, n.length, n.vessel_spacing, vein_material(n)));
   out.push_back(tube("cca", "artery", artery, kArteryNormal, n.length, n.vessel_spacing, artery_material()));
+  return out;
+}
+
+Result<SceneDef> expand_anatomy(const SceneDef& scene) {
+  if (!scene.anatomy || scene.anatomy_expanded) return scene;
+  const NeckDef& n = *scene.anatomy;
+  const std::string& file = n.file;
+  const int line = n.line;
+  auto made = neck_tissues(n, file + ":" + std::to_string(line) + ": anatomy");
+  if (!made) return made.error();
+  for (TissueDef& t : *made) t.line = line;
+  // Each layer's material keys the scene set, over the calibrated default.
+  for (const AnatomyLayerDef& layer : n.layers) {
+    TissueDef* t = nullptr;
+    for (TissueDef& g : *made)
+      if (g.name == layer.name) t = &g;
+    if (!t) return Error{file + ":" + std::to_string(layer.line) + ": anatomy.layers." + layer.name +
+                         ": not a layer of the neck; expected skin, fat, ijv or cca"};
+    for (const std::string& key : layer.keys)
+      for (const Param<ChargedMaterialDef>& p : param_table(static_cast<const ChargedMaterialDef*>(nullptr)))
+        if (key == p.key)
+          std::visit([&](auto member) { t->charged.*member = layer.material.*member; }, p.field);
+    t->line = layer.line;
+    // The rule that spans the material and the generated patch, as for a tissue of the scene's own.
+    if (t->charged.max_separation > 0 && !(t->charged.max_separation > t->patch->spacing))
+      return Error{file + ":" + std::to_string(layer.line) + ": anatomy.layers." + layer.name + ".max_separation: " +
+                   num(t->charged.max_separation) + " m must exceed the layer's spacing " + num(t->patch->spacing) +
+                   " m (or leave it 0 and set max_strain)"};
+  }
+  SceneDef out = scene;
+  for (const TissueDef& own : scene.tissues)
+    for (const TissueDef& g : *made)
+      if (own.name == g.name)
+        return Error{file + ":" + std::to_string(own.line) + ": tissues: duplicate tissue name '" + own.name +
+                     "' (the anatomy on line " + std::to_string(line) + " generates it)"};
+  out.tissues = std::move(*made);
+  out.tissues.insert(out.tissues.end(), scene.tissues.begin(), scene.tissues.end());
+  out.anatomy_expanded = true;
   return out;
 }
 

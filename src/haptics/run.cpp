@@ -111,7 +111,7 @@ SimulationOptions run_simulation_options(const SceneDef& scene, const RunOptions
   // Frames: each tissue hands its drawn state over through a SnapshotTissue (allocation-free on the
   // stepping thread). Ultrasound images show the vein's wall tented where the needle pushes it: the
   // scene's `vein` tissue hands its particles over the same way.
-  bool vein = false;
+  bool vein = scene.anatomy.has_value();  // the neck's ijv
   for (const TissueDef& t : scene.tissues) vein = vein || t.role == "vein";
   so.snapshots = options.frames > 0 || (options.ultrasound > 0 && vein);
   return so;

@@ -298,8 +298,9 @@ std::string scene_reference_markdown() {
   render_section<CameraDef>(out, {"`camera`", "Optional; without it a viewer picks its own viewpoint.", {}, {}});
   render_section<NeckDef>(out, {"`anatomy`",
                                 "Optional: a generated neck (docs/cvc.md). Its tissues — `skin`, `fat`, `ijv` "
-                                "(role vein), `cca` (role artery) — come before those listed in `tissues`.",
-                                {}, {}});
+                                "(role vein), `cca` (role artery) — come before those listed in `tissues`; "
+                                "`layers` changes their materials.",
+                                kAnatomySections, {}});
   render_section<ProbeDef>(out, {"`probe`",
                                  "Optional: the ultrasound probe held in the other hand (docs/ultrasound.md); "
                                  "needs an `anatomy`. Its `device` section is read like the top-level `device`.",

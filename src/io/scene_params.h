@@ -38,6 +38,12 @@ inline constexpr SectionKey kDeviceSections[] = {
      "scripted: timed positions `{t, position}`, optionally `direction`, times non-decreasing "
      "(section `device.waypoints[]`)"},
 };
+inline constexpr SectionKey kAnatomySections[] = {
+    {"layers", "mapping",
+     "a generated layer's material changed from its calibrated default: keys `skin`, `fat`, `ijv`, `cca`, each a "
+     "mapping of charged_particles material keys (section `tissues[].material`); the keys it leaves out keep the "
+     "default (docs/cvc.md)"},
+};
 inline constexpr SectionKey kProbeSections[] = {
     {"device", "mapping", "the probe's device, as the top-level `device` (section `device`)"},
 };

@@ -2,6 +2,7 @@
 // outcome model, the loop's settings and the loop; the only place a scene is assembled.
 #include <palpate/simulation.h>
 
+#include <palpate/anatomy.h>
 #include <palpate/outcome.h>
 #include <palpate/ultrasound.h>
 
@@ -26,7 +27,10 @@ std::string scene_where(const SceneDef& scene) {
 
 }  // namespace
 
-Result<LoopSettings> scene_loop_settings(const SceneDef& scene, const SimulationOptions& options) {
+Result<LoopSettings> scene_loop_settings(const SceneDef& scene_in, const SimulationOptions& options) {
+  auto expanded = expand_anatomy(scene_in);  // the outcome model reads every tissue's role
+  if (!expanded) return expanded.error();
+  const SceneDef& scene = *expanded;
   const std::string where = scene_where(scene);
   if (!(scene.dt > 0) || !std::isfinite(scene.dt)) return Error{where + ": dt must be > 0 s"};
   LoopSettings ls;
@@ -107,18 +111,23 @@ struct Simulation::Impl {
   }
 };
 
-Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene, const SimulationOptions& options) {
+Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene_in, const SimulationOptions& options) {
+  auto scene = expand_anatomy(scene_in);  // the neck's layers generated here, not by the parser
+  if (!scene) return scene.error();
   std::vector<std::unique_ptr<Tissue>> tissues;
-  for (int i = 0; i < static_cast<int>(scene.tissues.size()); ++i) {
-    auto t = make_tissue(scene, i);
+  for (int i = 0; i < static_cast<int>(scene->tissues.size()); ++i) {
+    auto t = make_tissue(*scene, i);
     if (!t) return t.error();
     tissues.push_back(std::move(*t));
   }
-  return build(scene, std::move(tissues), options);
+  return build(*scene, std::move(tissues), options);
 }
 
-Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene, std::vector<std::unique_ptr<Tissue>> tissues,
+Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene_in, std::vector<std::unique_ptr<Tissue>> tissues,
                                                       const SimulationOptions& options) {
+  auto expanded = expand_anatomy(scene_in);
+  if (!expanded) return expanded.error();
+  const SceneDef& scene = *expanded;
   const std::string where = scene_where(scene);
   auto impl = std::make_unique<Impl>();
   Impl& m = *impl;

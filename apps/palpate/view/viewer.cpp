@@ -329,7 +329,7 @@ Viewer::~Viewer() {
 }
 
 int Viewer::build_simulation() {
-  if (scene_.tissues.empty()) {
+  if (scene_.tissues.empty() && !scene_.anatomy) {
     fmt::print(stderr, "palpate view: {}: the scene has no tissues to show\n", scene_.file.string());
     return 2;
   }
@@ -341,6 +341,7 @@ int Viewer::build_simulation() {
     return 2;
   }
   sim_ = std::move(*sim);
+  scene_ = sim_->scene();  // with the anatomy's layers generated: the panels edit every tissue
   for (size_t i = 0; i < sim_->tissue_count(); ++i) tissues_.push_back(sim_->snapshot(i));
   views_.resize(tissues_.size());
   drawn_.assign(tissues_.size(), false);
