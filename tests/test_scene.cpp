@@ -13,6 +13,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <sys/stat.h>
 
 namespace fs = std::filesystem;
 using palpate::parse_scene;
@@ -512,10 +513,10 @@ TEST(SceneErrors, MissingInputFilesNameKeyAndResolvedPath) {
 TEST(SceneLoad, MissingFileAndDirectory) {
   auto r = palpate::load_scene("/nonexistent/dir/scene.yaml");
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error().message, "/nonexistent/dir/scene.yaml: cannot open scene file (No such file or directory)");
+  EXPECT_EQ(r.error().message, "/nonexistent/dir/scene.yaml: no such file; expected a YAML scene file");
   auto d = palpate::load_scene(kTestData);
   ASSERT_FALSE(d.ok());
-  EXPECT_EQ(d.error().message, kTestData.string() + ": is a directory; expected a YAML scene file");
+  EXPECT_EQ(d.error().message, kTestData.string() + ": is a directory, not a regular file; expected a YAML scene file");
 }
 
 TEST(SceneLoad, ErrorsNameTheFileAsGiven) {
@@ -700,4 +701,34 @@ TEST(SceneErrors, APatchTooLargeToBuildIsRefusedNamingItsSpacing) {
             0u)
       << m;
   EXPECT_NE(m.find("expected a coarser spacing or a smaller patch"), std::string::npos) << m;
+}
+
+// A path that is not a regular file is refused at once, saying what it is, before anything opens
+// it: /dev/zero used to be read until the out-of-memory killer ended the run (23.4 GB), a FIFO
+// blocked forever, a directory as material.predictor reported "out of memory".
+TEST(SceneLoad, PathsThatAreNotRegularFilesAreRefusedAtOnce) {
+  auto zero = palpate::load_scene("/dev/zero");
+  ASSERT_FALSE(zero.ok());
+  EXPECT_EQ(zero.error().message, "/dev/zero: is a character device, not a regular file; expected a YAML scene file");
+  const fs::path fifo = fs::temp_directory_path() / "palpate_test_scene.fifo";
+  fs::remove(fifo);
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  auto f = palpate::load_scene(fifo);  // returns: nothing opens the FIFO
+  ASSERT_FALSE(f.ok());
+  EXPECT_EQ(f.error().message, fifo.string() + ": is a FIFO (named pipe), not a regular file; expected a YAML scene file");
+
+  // Inside a scene: the key, its line, and what the path is.
+  auto mesh = parse_scene("tissues:\n  - name: a\n    model: mass_spring\n    mesh: {file: " + fifo.string() + "}\n", "s.yaml");
+  ASSERT_FALSE(mesh.ok());
+  EXPECT_NE(mesh.error().message.find("s.yaml:4: tissues[0].mesh.file: " + fifo.string() + ": is a FIFO"), std::string::npos)
+      << mesh.error().message;
+  auto rec = parse_scene(std::string("device: {kind: replay, recording: /dev/urandom}\n") + kOneTissue, "s.yaml");
+  ASSERT_FALSE(rec.ok());
+  EXPECT_NE(rec.error().message.find("s.yaml:1: device.recording: /dev/urandom: is a character device"), std::string::npos)
+      << rec.error().message;
+  fs::remove(fifo);
+
+  // The predictor file: a directory is named as one.
+  EXPECT_EQ(palpate::check_regular_file(kTestData, "a palpate predictor file").error().message,
+            kTestData.string() + ": is a directory, not a regular file; expected a palpate predictor file");
 }

@@ -204,6 +204,9 @@ int run_command(const RunArgs& a) {
     fmt::print(stderr, "palpate run: ultrasound: {}\n", s.ultrasound_error);
     return 1;
   }
+  // The plots are among a run's outputs: a run that could not write them did not do its job
+  // (the reason was printed above; run.csv and summary.json are whole).
+  if (!s.plot_error.empty()) return 1;
   return 0;
 }
 

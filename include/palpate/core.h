@@ -64,6 +64,12 @@ class [[nodiscard]] Status {
 Status write_file_atomic(const std::filesystem::path& file, std::string_view bytes,
                          bool create_directories = true);
 
+// Whether `file` is a regular file (symbolic links followed), checked with stat before anything
+// opens it: a directory, a FIFO (opening it would block), a device such as /dev/zero (reading it
+// would never end) or a socket is refused naming the path, what it is, and `expected` ("a YAML
+// scene file"); a missing path says so. Every path a run reads goes through it.
+Status check_regular_file(const std::filesystem::path& file, std::string_view expected);
+
 // The library's version, "MAJOR.MINOR.PATCH".
 const char* version();
 

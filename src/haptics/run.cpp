@@ -39,12 +39,16 @@ bool is_run_output(const std::string& name) {
                                        "force.dat", "plots.gp", "plots.log", "run.csv.part.series"};
   for (const char* f : kFixed)
     if (name == f || name.rfind(std::string(f) + ".tmp-", 0) == 0) return true;
-  if (const size_t tmp = name.find(".tmp-"); tmp != std::string::npos && name.rfind("frame_", 0) == 0)
-    return is_run_output(name.substr(0, tmp));
+  // Numbered images: frame_NNN.png (frames) and us_NNN.png (ultrasound), and their temporary forms.
+  for (const char* prefix : {"frame_", "us_"}) {
+    const size_t p = std::char_traits<char>::length(prefix);
+    if (name.rfind(prefix, 0) != 0) continue;
+    if (const size_t tmp = name.find(".tmp-"); tmp != std::string::npos) return is_run_output(name.substr(0, tmp));
+    if (name.size() > p + 4 && name.compare(name.size() - 4, 4, ".png") == 0)
+      return std::all_of(name.begin() + std::ptrdiff_t(p), name.end() - 4, [](char c) { return c >= '0' && c <= '9'; });
+  }
   if (name.size() > 5 && name.compare(name.size() - 5, 5, ".part") == 0)
     return is_run_output(name.substr(0, name.size() - 5));
-  if (name.rfind("frame_", 0) == 0 && name.size() > 10 && name.compare(name.size() - 4, 4, ".png") == 0)
-    return std::all_of(name.begin() + 6, name.end() - 4, [](char c) { return c >= '0' && c <= '9'; });
   return false;
 }
 

@@ -19,9 +19,7 @@ std::string_view trim(std::string_view s) {
 }  // namespace
 
 Result<CsvRows> CsvRows::open(const std::filesystem::path& file, const char* what) {
-  std::error_code ec;
-  if (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec))
-    return Error{file.string() + ": cannot open " + what + ": not a regular file"};
+  if (Status s = check_regular_file(file, std::string("a ") + what + " (CSV)"); !s) return s.error();
   std::ifstream in(file);
   if (!in) return Error{file.string() + ": cannot open " + what};
   return CsvRows(file, std::move(in));

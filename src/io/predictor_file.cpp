@@ -158,6 +158,7 @@ Status save_predictor(const std::filesystem::path& file, const SpringModel& mode
 Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const SpringNetwork& net,
                                        const SpringModelOptions& options) {
   const std::string where = file.string() + ": ";
+  if (Status s = check_regular_file(file, "a palpate predictor file (material.predictor)"); !s) return s.error();
   std::ifstream in(file, std::ios::binary | std::ios::ate);
   if (!in) return Error{where + "cannot open the predictor file"};
   const std::streamoff size = in.tellg();

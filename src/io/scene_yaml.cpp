@@ -289,6 +289,8 @@ Keys read_table(const Ctx& c, const YAML::Node& map, const std::string& path, in
 // An input file a scene names must exist when the scene is loaded, not halfway through a run.
 void require_file(const Ctx& c, const fs::path& p, int line, const std::string& path) {
   std::error_code ec;
+  if (fs::exists(p, ec) && !fs::is_regular_file(p, ec))  // a directory, FIFO, /dev/zero: say what it is
+    c.fail(line, path, check_regular_file(p, "a regular file").error().message);
   if (!fs::is_regular_file(p, ec))
     c.fail(line, path, "file not found: " + p.string() +
                            (c.base_dir.empty() ? std::string() : " (relative paths are resolved against " +
@@ -670,7 +672,8 @@ Result<SceneDef> parse_scene(const std::string& yaml, const std::string& name, c
 
 Result<SceneDef> load_scene(const fs::path& file) {
   std::error_code ec;
-  if (fs::is_directory(file, ec)) return Error{file.string() + ": is a directory; expected a YAML scene file"};
+  // /dev/zero would be read until memory runs out, a FIFO would block the open: stat first.
+  if (Status s = check_regular_file(file, "a YAML scene file"); !s) return s.error();
   std::ifstream in(file, std::ios::binary);
   if (!in) return Error{file.string() + ": cannot open scene file (" + std::strerror(errno) + ")"};
   // The YAML parser holds about 75 bytes of nodes per byte of the file (3.9 GB for a 52 MB scene of

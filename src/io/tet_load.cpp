@@ -23,10 +23,7 @@ std::string lower_extension(const std::filesystem::path& file) {
 }
 
 Status check_readable(const std::filesystem::path& file) {
-  std::error_code ec;
-  const auto st = std::filesystem::status(file, ec);
-  if (ec || !std::filesystem::exists(st)) return Error{fmt::format("{}: no such file", file.string())};
-  if (std::filesystem::is_directory(st)) return Error{fmt::format("{}: is a directory, expected a mesh file", file.string())};
+  if (Status s = check_regular_file(file, "a mesh file"); !s) return s.error();
   std::ifstream in(file, std::ios::binary);
   if (!in) return Error{fmt::format("{}: cannot open the file for reading", file.string())};
   return {};

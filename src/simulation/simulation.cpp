@@ -157,9 +157,10 @@ Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene_in, 
     const DeviceDef* def;
     Vec3 axis;
   };
+  // The definitions the tools keep pointing at are the Simulation's own copy of the scene.
   std::vector<Want> wants = {{"tool", "device", scene.tool.kind == "needle" ? ToolRole::needle : ToolRole::sphere,
-                              &scene.device, scene.tool.axis}};
-  if (probe) wants.push_back({"probe", "probe.device", ToolRole::ultrasound_probe, &scene.probe->device, scene.probe->axis});
+                              &m.scene.device, scene.tool.axis}};
+  if (probe) wants.push_back({"probe", "probe.device", ToolRole::ultrasound_probe, &m.scene.probe->device, scene.probe->axis});
   for (const Want& w : wants) {
     Device* given = m.override_for(w.name);
     if (!given && w.def->kind == "openhaptics" && !options.realtime)
@@ -253,7 +254,8 @@ Status Simulation::replace_tissue(size_t i, std::unique_ptr<Tissue> tissue, cons
   if (!settings) return settings.error();
   if (m.loop) m.loop->stop();
   m.loop.reset();  // nothing steps or reads the old tissue any more
-  m.scene = std::move(scene);
+  // Only the tissue's entry changes: the tools point into m.scene's device definitions.
+  if (i < m.scene.tissues.size()) m.scene.tissues[i] = def;
   m.settings = std::move(*settings);
   m.adopt(i, std::move(tissue));
   m.link();

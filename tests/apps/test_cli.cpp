@@ -197,3 +197,17 @@ TEST(Cli, UltrasoundWritesItsImagesAndNeedsAProbe) {
   EXPECT_NE(r.out.find("ultrasound images need a 'probe' section in the scene"), std::string::npos) << r.out;
   fs::remove_all(out);
 }
+
+// The plots are among a run's outputs: a run that could not write them (no gnuplot on the PATH
+// here) says why and exits non-zero, with run.csv and summary.json whole beside it.
+TEST(Cli, ARunWhosePlotsCouldNotBeWrittenExitsNonZero) {
+  const auto out = std::filesystem::temp_directory_path() / "palpate_cli_no_plots";
+  std::filesystem::remove_all(out);
+  Ran r = palpate::test::shell_run("PATH=/nonexistent " + std::string(PALPATE_CLI) + " run " PALPATE_DATA_DIR
+                                   "/scenes/probe.yaml --out " + out.string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("palpate run: no plots: "), std::string::npos) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(out / "run.csv"));
+  EXPECT_TRUE(std::filesystem::exists(out / "summary.json"));
+  std::filesystem::remove_all(out);
+}

@@ -383,16 +383,18 @@ TEST(Run, StaleOutputsAreClearedWhenARunStarts) {
   fs::create_directories(out);
   for (const char* f : {"summary.json", "force_time.png", "force_depth.png", "force_time.png.part",
                         "run.csv.part", "frame_000.png", "frame_0042.png", "summary.json.tmp-1-2",
-                        "notes.txt", "frame_x.png", "mine.part"})
+                        "us_000.png", "us_012.png", "us_003.png.tmp-7-1", "notes.txt", "frame_x.png",
+                        "us_x.png", "mine.part"})
     std::ofstream(out / f) << "old";
   palpate::RunOptions opt;
   opt.plots = false;  // the new run writes no plots: the old ones must not pass for its own
   auto r = palpate::run_scene(press_scene(out), floor_of(300.0), opt);
   ASSERT_TRUE(r.ok()) << r.error().message;
   for (const char* gone : {"force_time.png", "force_depth.png", "force_time.png.part", "run.csv.part",
-                           "frame_000.png", "frame_0042.png", "summary.json.tmp-1-2"})
+                           "frame_000.png", "frame_0042.png", "summary.json.tmp-1-2", "us_000.png", "us_012.png",
+                           "us_003.png.tmp-7-1"})  // an earlier run's ultrasound images too
     EXPECT_FALSE(fs::exists(out / gone)) << gone;
-  for (const char* kept : {"notes.txt", "frame_x.png", "mine.part"}) EXPECT_EQ(slurp(out / kept), "old") << kept;
+  for (const char* kept : {"notes.txt", "frame_x.png", "us_x.png", "mine.part"}) EXPECT_EQ(slurp(out / kept), "old") << kept;
   EXPECT_NE(slurp(out / "summary.json"), "old");
   EXPECT_TRUE(fs::exists(out / "run.csv"));
 }
