@@ -304,7 +304,12 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
     return build_spring_model(std::move(network), options, progress);
   }
   std::string why;
-  if (std::filesystem::exists(file)) {
+  std::error_code ec;
+  // A directory, FIFO or device under the predictor's name is refused, not computed around and
+  // then renamed over (a FIFO would be replaced by the saved file).
+  if (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec))
+    return check_regular_file(file, "a palpate predictor file (material.predictor)").error();
+  if (std::filesystem::exists(file, ec)) {
     auto loaded = load_predictor(file, network, options);
     if (loaded) {
       if (note) *note = "loaded " + file.string();
