@@ -732,3 +732,29 @@ TEST(SceneLoad, PathsThatAreNotRegularFilesAreRefusedAtOnce) {
   EXPECT_EQ(palpate::check_regular_file(kTestData, "a palpate predictor file").error().message,
             kTestData.string() + ": is a directory, not a regular file; expected a palpate predictor file");
 }
+
+// The mass-spring material's rules that span keys are checked at load, naming the line and key
+// (the scene table's range for poisson_ratio is [0, 0.499]; the volume term needs 0.25 or more).
+TEST(SceneLoad, SpringMaterialRulesAcrossKeysAreCheckedAtLoad) {
+  auto error_of = [](const std::string& material) {
+    auto s = parse_scene("tissues:\n  - name: a\n    model: mass_spring\n    patch: {}\n    material:\n" + material, "s.yaml");
+    return s ? std::string("accepted") : s.error().message;
+  };
+  EXPECT_EQ(error_of("      youngs_modulus: 5000\n      poisson_ratio: 0.2\n      topology: tet_edges\n"),
+            "s.yaml:7: tissues[0].material.poisson_ratio: 0.2 is below 0.25: a spring network alone has Poisson's "
+            "ratio 0.25 and the volume term only adds to it; expected 0 (no volume term) or 0.25 to 0.499");
+  EXPECT_EQ(error_of("      poisson_ratio: 0.45\n      topology: tet_edges\n"),
+            "s.yaml:6: tissues[0].material.poisson_ratio: needs youngs_modulus > 0 (the volume term's modulus is "
+            "derived from both)");
+  EXPECT_EQ(error_of("      youngs_modulus: 5000\n      poisson_ratio: 0.45\n      topology: all_pairs\n"),
+            "s.yaml:7: tissues[0].material.poisson_ratio: needs topology tet_edges or edges on a tetrahedral mesh, "
+            "not all_pairs");
+  EXPECT_EQ(error_of("      topology: tet_edges\n      fill_max_edge: 0.002\n      fill_refine_size: 0.004\n"),
+            "s.yaml:8: tissues[0].material.fill_refine_size: 0.004 m is larger than fill_max_edge 0.002 m; expected "
+            "the refined region finer than the rest");
+  EXPECT_EQ(error_of("      fill_refine_size: 0.004\n"),
+            "s.yaml:6: tissues[0].material.fill_refine_size: grades the tetrahedral fill of a surface: needs "
+            "topology tet_edges");
+  EXPECT_EQ(error_of("      youngs_modulus: 5000\n      poisson_ratio: 0.45\n      topology: tet_edges\n"), "accepted");
+  EXPECT_EQ(error_of("      youngs_modulus: 5000\n      poisson_ratio: 0\n"), "accepted");
+}

@@ -297,6 +297,30 @@ void require_file(const Ctx& c, const fs::path& p, int line, const std::string& 
                                                                        c.base_dir.string() + ")"));
 }
 
+// The mass-spring material's rules that span several keys, checked here once with the scene's line
+// and key (the network builder keeps its own guard for programs that build networks directly).
+void check_spring_rules(const Ctx& c, const SpringMaterialDef& m, const Keys& mk, int mline, const std::string& mpath) {
+  const int pline = mk.line_or("poisson_ratio", mline);
+  if (m.poisson_ratio > 0 && m.poisson_ratio < 0.25)
+    c.fail(pline, mpath + ".poisson_ratio",
+           format_number(m.poisson_ratio) + " is below 0.25: a spring network alone has Poisson's ratio 0.25 and the "
+           "volume term only adds to it; expected 0 (no volume term) or 0.25 to 0.499");
+  if (m.poisson_ratio > 0 && !(m.youngs_modulus > 0))
+    c.fail(pline, mpath + ".poisson_ratio",
+           "needs youngs_modulus > 0 (the volume term's modulus is derived from both)");
+  if (m.poisson_ratio > 0 && m.topology == "all_pairs")
+    c.fail(pline, mpath + ".poisson_ratio", "needs topology tet_edges or edges on a tetrahedral mesh, not all_pairs");
+  if (m.fill_refine_size > 0) {
+    const int fline = mk.line_or("fill_refine_size", mline);
+    if (m.fill_max_edge > 0 && m.fill_refine_size > m.fill_max_edge)
+      c.fail(fline, mpath + ".fill_refine_size",
+             format_number(m.fill_refine_size) + " m is larger than fill_max_edge " + format_number(m.fill_max_edge) +
+                 " m; expected the refined region finer than the rest");
+    if (m.topology != "tet_edges")
+      c.fail(fline, mpath + ".fill_refine_size", "grades the tetrahedral fill of a surface: needs topology tet_edges");
+  }
+}
+
 // A direction given in the file: any non-zero length, stored as a unit vector.
 Vec3 unit_direction(const Ctx& c, const Vec3& v, int line, const std::string& path) {
   const double n = v.norm();
@@ -480,6 +504,7 @@ TissueDef parse_tissue(const Ctx& c, const YAML::Node& node, size_t index, int l
                                                                 : std::string();
                       });
     }
+    if (!charged) check_spring_rules(c, t.spring, mk, mline, mpath);
     if (charged && t.patch && t.charged.max_separation > 0 && !(t.charged.max_separation > t.patch->spacing))
       c.fail(mk.line_or("max_separation", mline), mpath + ".max_separation",
              format_number(t.charged.max_separation) + " m must exceed the patch spacing " +
