@@ -402,7 +402,7 @@ void add_all_pair_forces(const SpringModel& model, const RowMat3d& x, const RowM
   const SpringNetwork& net = model.network;
   const bool uniform = model.uniform_stiffness > 0 && model.uniform_damping;
   const Eigen::Index n = x.rows();
-  if (!model.rest_length_single.empty() && has_avx2_fma()) {
+  if (!model.solver->rest_length_single.empty() && has_avx2_fma()) {
     using ArrF = Eigen::Map<Eigen::ArrayXf>;
     float* q = s.soa_single.data();
     ArrF X(q, n), Y(q + n, n), Z(q + 2 * n, n), VX(q + 3 * n, n), VY(q + 4 * n, n), VZ(q + 5 * n, n);
@@ -410,7 +410,7 @@ void add_all_pair_forces(const SpringModel& model, const RowMat3d& x, const RowM
     X = x.col(0).array().cast<float>(); Y = x.col(1).array().cast<float>(); Z = x.col(2).array().cast<float>();
     VX = v.col(0).array().cast<float>(); VY = v.col(1).array().cast<float>(); VZ = v.col(2).array().cast<float>();
     FX.setZero(); FY.setZero(); FZ.setZero();
-    all_pairs_avx2_single(static_cast<int>(n), model.rest_length_single.data(), static_cast<float>(net.stiffness[0]),
+    all_pairs_avx2_single(static_cast<int>(n), model.solver->rest_length_single.data(), static_cast<float>(net.stiffness[0]),
                           static_cast<float>(net.damping[0]), q);
     f.col(0).array() += FX.cast<double>(); f.col(1).array() += FY.cast<double>(); f.col(2).array() += FZ.cast<double>();
     return;

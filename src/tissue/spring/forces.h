@@ -6,6 +6,7 @@
 #include <palpate/spring.h>
 
 #include "tissue/spring/cpu.h"
+#include "tissue/spring/layouts.h"
 
 #include <cstdint>
 #include <vector>
@@ -28,10 +29,10 @@ inline std::array<Vec3, 4> tet_volume_gradients(const Vec3& x0, const Vec3& x1, 
 double add_volume_forces(const SpringNetwork& net, const double* x, size_t stride, double* f, size_t fstride) noexcept;
 
 // The volume term's forces on the padded layout (x at xv[8i …], sums added at fr[8i …]), four
-// tetrahedra at a time in the order of model.volume_corners (layout_volume_pass), with AVX2 + FMA.
+// tetrahedra at a time in the order of SolverLayouts::volume_corners (layout_volume_pass), with AVX2 + FMA.
 void volume_pass_avx2(const SpringModel& model, const double* xv, double* fr) noexcept;
 
-// Lays out the vectorised volume pass (SpringModel::volume_scale, volume_corners) for model.network's
+// Lays out the vectorised volume pass (SolverLayouts::volume_scale, volume_corners) for model.network's
 // tetrahedra: with `order` empty, greedily in the mesh's order, each tetrahedron joining the first of
 // up to 32 open groups with which it shares no corner (so that a group's four read-modify-writes
 // per corner do not wait on each other, and nearby tetrahedra stay close for the cache); otherwise

@@ -67,9 +67,9 @@ void add_predictor_jacobian(const SpringModel& model, const RowMat3d& y, const R
 
 void solve_predictor(const SpringModel& model, SpringState& s, const RowMat3d& b, RowMat3d& x) noexcept {
   if (model.predictor.kind == SpringSolver::desbrun)
-    spring::solve_dense(model.predictor, model.inverse_single, b, x, s.soa.data());
-  else if (model.supernodes.empty()) spring::solve_columns(model.predictor, b, x, s.work);
-  else spring::solve_supernodal(model.predictor, model.supernodes, b, x, s.soa.data());
+    spring::solve_dense(model.predictor, model.solver->inverse_single, b, x, s.soa.data());
+  else if (model.solver->supernodes.empty()) spring::solve_columns(model.predictor, b, x, s.work);
+  else spring::solve_supernodal(model.predictor, model.solver->supernodes, b, x, s.soa.data());
 }
 
 // Backward Euler's damping on request (SpringModelOptions::exact_iterations): the predictor's Δv

@@ -282,8 +282,8 @@ double* spring_pass_padded(const SpringModel& model, const RowMat3d& x, const Ro
   if (model.volume_term) {
     // The scalar form also for a model whose layout does not match its tetrahedra (one assembled
     // by hand rather than by build_spring_model). spring_pass_padded needs AVX2 + FMA anyway.
-    if (kernel == SpringKernel::scalar || model.volume_scale.size() != net.tets.size() ||
-        model.volume_corners.size() != 4 * net.tets.size())
+    if (kernel == SpringKernel::scalar || model.solver->volume_scale.size() != net.tets.size() ||
+        model.solver->volume_corners.size() != 4 * net.tets.size())
       add_volume_forces(net, xv, 8, fr, 8);
     else volume_pass_avx2(model, xv, fr);
   }

@@ -91,7 +91,7 @@ void correct(const SpringModel& model, SpringState& s, const Vec3& ext_torque, b
 // The doubles of SpringState::soa the fused sparse step takes: the padded spring pass, then the
 // permuted right-hand side and the block being solved.
 size_t fused_scratch(const SpringModel& model) {
-  return spring_pass_scratch(model) + supernodal_scratch(model.predictor, model.supernodes);
+  return spring_pass_scratch(model) + supernodal_scratch(model.predictor, model.solver->supernodes);
 }
 
 // step_predictor's sparse step for generic springs with the supernodal factor, fused: the spring
@@ -120,7 +120,7 @@ void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState
   fused_rhs(n, model.options.dt, model.options.point_damping, model.predictor.perm.data(), model.anchored.data(), fr,
             work, s.v.data(), z4);
   // Solve, in place, and Δv gathered back.
-  solve_supernodal_permuted(model.predictor, model.supernodes, z4, z4 + 4 * n);
+  solve_supernodal_permuted(model.predictor, model.solver->supernodes, z4, z4 + 4 * n);
   unpermute_rows(model.predictor, z4, s.dv.data());
   correct(model, s, ext_torque, momentum);
   advance(model, s, s.dv);
@@ -131,7 +131,7 @@ void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState
 // solved with the stored inverse or factor, then corrected, then x⁺ = x + h v⁺.
 void step_predictor(const SpringModel& model, SpringState& s, const ToolState* tool) noexcept {
   const bool momentum = model.options.angular_momentum_correction && model.network.anchors.empty();
-  if (!model.all_pairs && model.predictor.kind == SpringSolver::sparse && !model.supernodes.empty() &&
+  if (!model.all_pairs && model.predictor.kind == SpringSolver::sparse && !model.solver->supernodes.empty() &&
       spring_pass_padded_available(model) && s.soa.size() >= fused_scratch(model)) {
     step_sparse_fused(model, s, tool, momentum);
     return;

@@ -85,7 +85,7 @@ __attribute__((target("avx2"))) inline void transpose_columns(__m256d x, __m256d
 
 // The volume term's forces on the padded layout (x at xv[8i …], sums at fr[8i …], x, y, z, 0): the
 // same forces as add_volume_forces (round-off level; the sums in another order of tetrahedra),
-// four tetrahedra at a time in the order SpringModel::volume_corners lays out. Each lane is one
+// four tetrahedra at a time in the order SolverLayouts::volume_corners lays out. Each lane is one
 // tetrahedron: its edge vectors a, b, c are taken per vertex (three subtractions of 256-bit rows)
 // and transposed, the cross products and 6V are then plain lane-wise FMAs (no lane rotations, no
 // horizontal sum), and the four corners' forces are transposed back and added one tetrahedron at
@@ -98,8 +98,8 @@ __attribute__((target("avx2,fma"))) void volume_pass_avx2(const SpringModel& mod
                                                            double* fr) noexcept {
   const size_t T = model.network.tets.size(), G = T / 4;
   const double kappa = model.network.volume_modulus;
-  const int* corners = model.volume_corners.data();
-  const double* scale = model.volume_scale.data();
+  const int* corners = model.solver->volume_corners.data();
+  const double* scale = model.solver->volume_scale.data();
   const __m256d k6 = _mm256_set1_pd(kappa / 6);
   for (size_t g = 0; g < G; ++g) {
     const int* o = corners + 16 * g;  // corner c of lane l at o[4c + l]
