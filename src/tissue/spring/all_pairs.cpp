@@ -3,15 +3,15 @@
 // and single-precision AVX2 kernels.
 #include <palpate/spring.h>
 
+#include "core/simd.h"
 #include "tissue/spring/cpu.h"
 #include "tissue/spring/forces.h"
+#include "tissue/spring/laws.h"
 #include "tissue/spring/stages.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-
-#include <immintrin.h>
 
 namespace palpate::spring {
 
@@ -36,7 +36,7 @@ inline void all_pairs_portable(int n, const SpringNetwork& net, double* p, size_
       const double r = 1.0 / std::sqrt(l2);
       const double k = Uniform ? net.stiffness[0] : net.stiffness[e], c = Uniform ? net.damping[0] : net.damping[e];
       const double dvd = (VX[j] - VX[i]) * dx + (VY[j] - VY[i]) * dy + (VZ[j] - VZ[i]) * dz;
-      const double g = k - k * net.rest_length[e] * r + c * dvd * r * r;
+      const double g = all_pairs_spring_factor(k, c, net.rest_length[e], r, dvd);
       sx += g * dx; sy += g * dy; sz += g * dz;
       FX[j] -= g * dx; FY[j] -= g * dy; FZ[j] -= g * dz;
     }
@@ -44,61 +44,53 @@ inline void all_pairs_portable(int n, const SpringNetwork& net, double* p, size_
   }
 }
 
-// The same with AVX2 + FMA, four springs at a time. 1/l comes from the single-precision estimate
-// (12 bits) refined by three Newton steps r ← r (3 − l² r²)/2 in double (≈ 48 bits, then rounding):
-// no square root or division in the loop.
-template <bool Uniform>
-__attribute__((target("avx2,fma"))) void all_pairs_avx2(int n, const SpringNetwork& net, double* p, size_t N) noexcept {
-  const double *X = p, *Y = p + N, *Z = p + 2 * N, *VX = p + 3 * N, *VY = p + 4 * N, *VZ = p + 5 * N;
-  double *FX = p + 6 * N, *FY = p + 7 * N, *FZ = p + 8 * N;
-  const double* RL = net.rest_length.data();
-  const double* KS = net.stiffness.data();
-  const double* CS = net.damping.data();
-  const __m256d half = _mm256_set1_pd(0.5), three = _mm256_set1_pd(3.0), tiny = _mm256_set1_pd(1e-30);
+// The same on a vector type of core/simd.h, W = 4 (d4) or 8 (f8) springs at a time with AVX2 + FMA;
+// the last (n − i − 1) mod W of a row one at a time by the scalar law. 1/l comes from the 12-bit
+// reciprocal square root estimate and Newton steps r ← (r/2)(3 − (l² r) r) (rsqrt_newton_step, here
+// with one rounding for 3 − (l² r) r): three in double (≈ 48 bits, then rounding), one in float
+// (≈ 23 bits): no square root or division in the loop. RL, KS, CS: rest lengths, stiffnesses and
+// dampings per spring (Uniform: KS[0], CS[0] for every spring); p as all_pairs_portable's, N apart.
+template <typename V, bool Uniform, typename T = simd::scalar_t<V>>
+PALPATE_AVX2 void all_pairs_avx2(int n, const T* RL, const T* KS, const T* CS, T* p, size_t N) noexcept {
+  using namespace simd;
+  constexpr int W = lanes<V>::count;
+  constexpr int kNewtonSteps = sizeof(T) == sizeof(double) ? 3 : 1;
+  constexpr T kTiny = sizeof(T) == sizeof(double) ? T(1e-30) : 1e-30f;  // m², coincident below
+  const T *X = p, *Y = p + N, *Z = p + 2 * N, *VX = p + 3 * N, *VY = p + 4 * N, *VZ = p + 5 * N;
+  T *FX = p + 6 * N, *FY = p + 7 * N, *FZ = p + 8 * N;
+  const V tiny = broadcast<V>(kTiny);
   size_t e = 0;
   for (int i = 0; i + 1 < n; ++i) {
-    const __m256d xi = _mm256_set1_pd(X[i]), yi = _mm256_set1_pd(Y[i]), zi = _mm256_set1_pd(Z[i]);
-    const __m256d vxi = _mm256_set1_pd(VX[i]), vyi = _mm256_set1_pd(VY[i]), vzi = _mm256_set1_pd(VZ[i]);
-    __m256d sx = _mm256_setzero_pd(), sy = sx, sz = sx;
+    const V xi = broadcast<V>(X[i]), yi = broadcast<V>(Y[i]), zi = broadcast<V>(Z[i]);
+    const V vxi = broadcast<V>(VX[i]), vyi = broadcast<V>(VY[i]), vzi = broadcast<V>(VZ[i]);
+    V sx = zero<V>(), sy = sx, sz = sx;
     int j = i + 1;
-    for (; j + 4 <= n; j += 4, e += 4) {
-      const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(X + j), xi);
-      const __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(Y + j), yi);
-      const __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(Z + j), zi);
-      const __m256d l2 = _mm256_fmadd_pd(dz, dz, _mm256_fmadd_pd(dy, dy, _mm256_mul_pd(dx, dx)));
-      const __m256d ok = _mm256_cmp_pd(l2, tiny, _CMP_GE_OQ);
-      const __m256d l2c = _mm256_max_pd(l2, tiny);
-      __m256d r = _mm256_cvtps_pd(_mm_rsqrt_ps(_mm256_cvtpd_ps(l2c)));
-      for (int it = 0; it < 3; ++it)
-        r = _mm256_mul_pd(_mm256_mul_pd(half, r), _mm256_fnmadd_pd(_mm256_mul_pd(l2c, r), r, three));
-      const __m256d k = Uniform ? _mm256_set1_pd(KS[0]) : _mm256_loadu_pd(KS + e);
-      const __m256d c = Uniform ? _mm256_set1_pd(CS[0]) : _mm256_loadu_pd(CS + e);
-      const __m256d dvd = _mm256_fmadd_pd(
-          _mm256_sub_pd(_mm256_loadu_pd(VZ + j), vzi), dz,
-          _mm256_fmadd_pd(_mm256_sub_pd(_mm256_loadu_pd(VY + j), vyi), dy,
-                          _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(VX + j), vxi), dx)));
+    for (; j + W <= n; j += W, e += W) {
+      const V dx = loadu<V>(X + j) - xi, dy = loadu<V>(Y + j) - yi, dz = loadu<V>(Z + j) - zi;
+      const V l2 = fma(dz, dz, fma(dy, dy, dx * dx));
+      const V ok = greater_equal(l2, tiny);
+      const V l2c = max(l2, tiny);
+      V r = rsqrt_estimate(l2c);
+      for (int it = 0; it < kNewtonSteps; ++it) r = rsqrt_newton_step_avx2(l2c, r);
+      const V k = Uniform ? broadcast<V>(KS[0]) : loadu<V>(KS + e);
+      const V c = Uniform ? broadcast<V>(CS[0]) : loadu<V>(CS + e);
+      const V dvd = fma(loadu<V>(VZ + j) - vzi, dz, fma(loadu<V>(VY + j) - vyi, dy, (loadu<V>(VX + j) - vxi) * dx));
       // g = k − k L r + c (Δv·d) r², zero where the vertices coincide.
-      __m256d g = _mm256_fnmadd_pd(_mm256_mul_pd(k, _mm256_loadu_pd(RL + e)), r, k);
-      g = _mm256_fmadd_pd(_mm256_mul_pd(c, dvd), _mm256_mul_pd(r, r), g);
-      g = _mm256_and_pd(g, ok);
-      const __m256d fx = _mm256_mul_pd(g, dx), fy = _mm256_mul_pd(g, dy), fz = _mm256_mul_pd(g, dz);
-      sx = _mm256_add_pd(sx, fx); sy = _mm256_add_pd(sy, fy); sz = _mm256_add_pd(sz, fz);
-      _mm256_storeu_pd(FX + j, _mm256_sub_pd(_mm256_loadu_pd(FX + j), fx));
-      _mm256_storeu_pd(FY + j, _mm256_sub_pd(_mm256_loadu_pd(FY + j), fy));
-      _mm256_storeu_pd(FZ + j, _mm256_sub_pd(_mm256_loadu_pd(FZ + j), fz));
+      const V g = select_or_zero(ok, all_pairs_spring_factor_avx2(k, c, loadu<V>(RL + e), r, dvd));
+      const V fx = g * dx, fy = g * dy, fz = g * dz;
+      sx = sx + fx; sy = sy + fy; sz = sz + fz;
+      storeu(FX + j, loadu<V>(FX + j) - fx);
+      storeu(FY + j, loadu<V>(FY + j) - fy);
+      storeu(FZ + j, loadu<V>(FZ + j) - fz);
     }
-    alignas(32) double hx[4], hy[4], hz[4];
-    _mm256_store_pd(hx, sx); _mm256_store_pd(hy, sy); _mm256_store_pd(hz, sz);
-    double tx = (hx[0] + hx[1]) + (hx[2] + hx[3]), ty = (hy[0] + hy[1]) + (hy[2] + hy[3]),
-           tz = (hz[0] + hz[1]) + (hz[2] + hz[3]);
+    T tx = sum(sx), ty = sum(sy), tz = sum(sz);
     for (; j < n; ++j, ++e) {
-      const double dx = X[j] - X[i], dy = Y[j] - Y[i], dz = Z[j] - Z[i];
-      const double l2 = dx * dx + dy * dy + dz * dz;
-      if (!(l2 >= 1e-30)) continue;
-      const double r = 1.0 / std::sqrt(l2);
-      const double k = Uniform ? KS[0] : KS[e], c = Uniform ? CS[0] : CS[e];
-      const double dvd = (VX[j] - VX[i]) * dx + (VY[j] - VY[i]) * dy + (VZ[j] - VZ[i]) * dz;
-      const double g = k - k * RL[e] * r + c * dvd * r * r;
+      const T dx = X[j] - X[i], dy = Y[j] - Y[i], dz = Z[j] - Z[i];
+      const T l2 = dx * dx + dy * dy + dz * dz;
+      if (!(l2 >= kTiny)) continue;
+      const T r = T(1) / std::sqrt(l2);
+      const T dvd = (VX[j] - VX[i]) * dx + (VY[j] - VY[i]) * dy + (VZ[j] - VZ[i]) * dz;
+      const T g = all_pairs_spring_factor(Uniform ? KS[0] : KS[e], Uniform ? CS[0] : CS[e], RL[e], r, dvd);
       tx += g * dx; ty += g * dy; tz += g * dz;
       FX[j] -= g * dx; FY[j] -= g * dy; FZ[j] -= g * dz;
     }
@@ -106,64 +98,58 @@ __attribute__((target("avx2,fma"))) void all_pairs_avx2(int n, const SpringNetwo
   }
 }
 
-// The same with AVX-512, eight springs at a time and the row's last (n − i − 1) mod 8 springs in
-// one masked pass (no scalar tail). 1/l comes from the double-precision estimate rsqrt14 (relative
-// error below 2⁻¹⁴) and two Newton steps r ← r (3 − l² r²)/2: the error e becomes ≈ 1.5 e² per
-// step, 2⁻¹⁴ → 2⁻²⁷ → 2⁻⁵³, i.e. rounding, the same accuracy as the AVX2 kernel's three steps
-// from the 12-bit float estimate.
-// GCC 12's AVX-512 intrinsics pass _mm512_undefined_pd() (a self-initialised variable) as the
-// unused merge source, which -Wmaybe-uninitialized reports at every use: a false positive.
-#pragma GCC diagnostic push
+// The same with AVX-512 (d8), eight springs at a time and the row's last (n − i − 1) mod 8 springs
+// in one masked pass (no scalar tail). 1/l comes from the double-precision estimate rsqrt14
+// (relative error below 2⁻¹⁴) and two Newton steps r ← (r/2)(3 − (l² r) r): the error e becomes
+// ≈ 1.5 e² per step, 2⁻¹⁴ → 2⁻²⁷ → 2⁻⁵³, i.e. rounding, the same accuracy as the AVX2 kernel's three
+// steps from the 12-bit float estimate.
+#pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see core/simd.h
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 // Eight doubles from a (a vertex array at the block's first j), or only the lanes in m (the others
 // zero) when the block is not full.
 template <bool Full>
-__attribute__((target("avx512f"), always_inline)) inline __m512d load8(__mmask8 m, const double* a) noexcept {
-  return Full ? _mm512_loadu_pd(a) : _mm512_maskz_loadu_pd(m, a);
+[[gnu::always_inline]] PALPATE_AVX512 inline simd::d8 load8(simd::k8 m, const double* a) noexcept {
+  return Full ? simd::loadu<simd::d8>(a) : simd::loadu(m, a);
 }
 
 // The same for a per-spring array from the block's first spring e: consecutive values into the
 // lanes of m (contiguous), the first into its lowest lane.
 template <bool Full>
-__attribute__((target("avx512f"), always_inline)) inline __m512d load8_springs(__mmask8 m, const double* a) noexcept {
-  return Full ? _mm512_loadu_pd(a) : _mm512_maskz_expandloadu_pd(m, a);
+[[gnu::always_inline]] PALPATE_AVX512 inline simd::d8 load8_springs(simd::k8 m, const double* a) noexcept {
+  return Full ? simd::loadu<simd::d8>(a) : simd::expand_load(m, a);
 }
 
+// One row i against the block of columns j … j + 7 (lanes in m): its sums s and f_j updated.
 template <bool Uniform, bool Full>
-__attribute__((target("avx512f"), always_inline)) inline void all_pairs_avx512_block(
+[[gnu::always_inline]] PALPATE_AVX512 inline void all_pairs_avx512_block(
     const double* X, const double* Y, const double* Z, const double* VX, const double* VY, const double* VZ,
     double* FX, double* FY, double* FZ, const double* RL, const double* KS, const double* CS, size_t e, int j,
-    __mmask8 m, __m512d xi, __m512d yi, __m512d zi, __m512d vxi, __m512d vyi, __m512d vzi, __m512d& sx,
-    __m512d& sy, __m512d& sz) noexcept {
-  const __m512d half = _mm512_set1_pd(0.5), three = _mm512_set1_pd(3.0), tiny = _mm512_set1_pd(1e-30);
-  const __m512d dx = _mm512_sub_pd(load8<Full>(m, X + j), xi);
-  const __m512d dy = _mm512_sub_pd(load8<Full>(m, Y + j), yi);
-  const __m512d dz = _mm512_sub_pd(load8<Full>(m, Z + j), zi);
-  const __m512d l2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
-  const __mmask8 ok = _mm512_mask_cmp_pd_mask(m, l2, tiny, _CMP_GE_OQ);
-  const __m512d l2c = _mm512_max_pd(l2, tiny);
-  __m512d r = _mm512_rsqrt14_pd(l2c);
-  for (int it = 0; it < 2; ++it)
-    r = _mm512_mul_pd(_mm512_mul_pd(half, r), _mm512_fnmadd_pd(_mm512_mul_pd(l2c, r), r, three));
-  const __m512d k = Uniform ? _mm512_set1_pd(KS[0]) : load8_springs<Full>(m, KS + e);
-  const __m512d c = Uniform ? _mm512_set1_pd(CS[0]) : load8_springs<Full>(m, CS + e);
-  const __m512d dvd = _mm512_fmadd_pd(
-      _mm512_sub_pd(load8<Full>(m, VZ + j), vzi), dz,
-      _mm512_fmadd_pd(_mm512_sub_pd(load8<Full>(m, VY + j), vyi), dy, _mm512_mul_pd(_mm512_sub_pd(load8<Full>(m, VX + j), vxi), dx)));
+    simd::k8 m, simd::d8 xi, simd::d8 yi, simd::d8 zi, simd::d8 vxi, simd::d8 vyi, simd::d8 vzi, simd::d8& sx,
+    simd::d8& sy, simd::d8& sz) noexcept {
+  using namespace simd;
+  const d8 tiny = broadcast<d8>(1e-30);
+  const d8 dx = load8<Full>(m, X + j) - xi, dy = load8<Full>(m, Y + j) - yi, dz = load8<Full>(m, Z + j) - zi;
+  const d8 l2 = fma(dz, dz, fma(dy, dy, dx * dx));
+  const k8 ok = greater_equal(m, l2, tiny);
+  const d8 l2c = max(l2, tiny);
+  d8 r = rsqrt_estimate(l2c);
+  for (int it = 0; it < 2; ++it) r = rsqrt_newton_step_avx512(l2c, r);
+  const d8 k = Uniform ? broadcast<d8>(KS[0]) : load8_springs<Full>(m, KS + e);
+  const d8 c = Uniform ? broadcast<d8>(CS[0]) : load8_springs<Full>(m, CS + e);
+  const d8 dvd = fma(load8<Full>(m, VZ + j) - vzi, dz,
+                     fma(load8<Full>(m, VY + j) - vyi, dy, (load8<Full>(m, VX + j) - vxi) * dx));
   // g = k − k L r + c (Δv·d) r², zero where the vertices coincide and in the lanes past the row.
-  __m512d g = _mm512_fnmadd_pd(_mm512_mul_pd(k, load8_springs<Full>(m, RL + e)), r, k);
-  g = _mm512_fmadd_pd(_mm512_mul_pd(c, dvd), _mm512_mul_pd(r, r), g);
-  g = _mm512_maskz_mov_pd(ok, g);
-  const __m512d fx = _mm512_mul_pd(g, dx), fy = _mm512_mul_pd(g, dy), fz = _mm512_mul_pd(g, dz);
-  sx = _mm512_add_pd(sx, fx); sy = _mm512_add_pd(sy, fy); sz = _mm512_add_pd(sz, fz);
+  const d8 g = select_or_zero(ok, all_pairs_spring_factor_avx512(k, c, load8_springs<Full>(m, RL + e), r, dvd));
+  const d8 fx = g * dx, fy = g * dy, fz = g * dz;
+  sx = sx + fx; sy = sy + fy; sz = sz + fz;
   if (Full) {
-    _mm512_storeu_pd(FX + j, _mm512_sub_pd(_mm512_loadu_pd(FX + j), fx));
-    _mm512_storeu_pd(FY + j, _mm512_sub_pd(_mm512_loadu_pd(FY + j), fy));
-    _mm512_storeu_pd(FZ + j, _mm512_sub_pd(_mm512_loadu_pd(FZ + j), fz));
+    storeu(FX + j, loadu<d8>(FX + j) - fx);
+    storeu(FY + j, loadu<d8>(FY + j) - fy);
+    storeu(FZ + j, loadu<d8>(FZ + j) - fz);
   } else {
-    _mm512_mask_storeu_pd(FX + j, m, _mm512_sub_pd(_mm512_maskz_loadu_pd(m, FX + j), fx));
-    _mm512_mask_storeu_pd(FY + j, m, _mm512_sub_pd(_mm512_maskz_loadu_pd(m, FY + j), fy));
-    _mm512_mask_storeu_pd(FZ + j, m, _mm512_sub_pd(_mm512_maskz_loadu_pd(m, FZ + j), fz));
+    storeu(FX + j, m, loadu(m, FX + j) - fx);
+    storeu(FY + j, m, loadu(m, FY + j) - fy);
+    storeu(FZ + j, m, loadu(m, FZ + j) - fz);
   }
 }
 
@@ -171,73 +157,89 @@ __attribute__((target("avx512f"), always_inline)) inline void all_pairs_avx512_b
 // (lanes in m; the others zero), added to the row's sums and to f (the block's total, subtracted
 // from f_j by the caller).
 struct AllPairsRow {
-  __m512d xi, yi, zi, vxi, vyi, vzi, sx, sy, sz;
+  simd::d8 xi, yi, zi, vxi, vyi, vzi, sx, sy, sz;
 };
 
 template <bool Uniform>
-__attribute__((target("avx512f"), always_inline)) inline void all_pairs_avx512_row(
-    __m512d xj, __m512d yj, __m512d zj, __m512d vxj, __m512d vyj, __m512d vzj, __mmask8 m, __m512d rl, __m512d k,
-    __m512d c, AllPairsRow& row, __m512d& fx, __m512d& fy, __m512d& fz) noexcept {
-  const __m512d half = _mm512_set1_pd(0.5), three = _mm512_set1_pd(3.0), tiny = _mm512_set1_pd(1e-30);
-  const __m512d dx = _mm512_sub_pd(xj, row.xi), dy = _mm512_sub_pd(yj, row.yi), dz = _mm512_sub_pd(zj, row.zi);
-  const __m512d l2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
-  const __mmask8 ok = _mm512_mask_cmp_pd_mask(m, l2, tiny, _CMP_GE_OQ);
-  const __m512d l2c = _mm512_max_pd(l2, tiny);
-  __m512d r = _mm512_rsqrt14_pd(l2c);
-  for (int it = 0; it < 2; ++it)
-    r = _mm512_mul_pd(_mm512_mul_pd(half, r), _mm512_fnmadd_pd(_mm512_mul_pd(l2c, r), r, three));
-  const __m512d dvd = _mm512_fmadd_pd(
-      _mm512_sub_pd(vzj, row.vzi), dz,
-      _mm512_fmadd_pd(_mm512_sub_pd(vyj, row.vyi), dy, _mm512_mul_pd(_mm512_sub_pd(vxj, row.vxi), dx)));
-  __m512d g = _mm512_fnmadd_pd(_mm512_mul_pd(k, rl), r, k);
-  g = _mm512_fmadd_pd(_mm512_mul_pd(c, dvd), _mm512_mul_pd(r, r), g);
-  g = _mm512_maskz_mov_pd(ok, g);
-  const __m512d gx = _mm512_mul_pd(g, dx), gy = _mm512_mul_pd(g, dy), gz = _mm512_mul_pd(g, dz);
-  row.sx = _mm512_add_pd(row.sx, gx); row.sy = _mm512_add_pd(row.sy, gy); row.sz = _mm512_add_pd(row.sz, gz);
-  fx = _mm512_add_pd(fx, gx); fy = _mm512_add_pd(fy, gy); fz = _mm512_add_pd(fz, gz);
+[[gnu::always_inline]] PALPATE_AVX512 inline void all_pairs_avx512_row(simd::d8 xj, simd::d8 yj, simd::d8 zj,
+                                                                       simd::d8 vxj, simd::d8 vyj, simd::d8 vzj,
+                                                                       simd::k8 m, simd::d8 rl, simd::d8 k, simd::d8 c,
+                                                                       AllPairsRow& row, simd::d8& fx, simd::d8& fy,
+                                                                       simd::d8& fz) noexcept {
+  using namespace simd;
+  const d8 tiny = broadcast<d8>(1e-30);
+  const d8 dx = xj - row.xi, dy = yj - row.yi, dz = zj - row.zi;
+  const d8 l2 = fma(dz, dz, fma(dy, dy, dx * dx));
+  const k8 ok = greater_equal(m, l2, tiny);
+  const d8 l2c = max(l2, tiny);
+  d8 r = rsqrt_estimate(l2c);
+  for (int it = 0; it < 2; ++it) r = rsqrt_newton_step_avx512(l2c, r);
+  const d8 dvd = fma(vzj - row.vzi, dz, fma(vyj - row.vyi, dy, (vxj - row.vxi) * dx));
+  const d8 g = select_or_zero(ok, all_pairs_spring_factor_avx512(k, c, rl, r, dvd));
+  const d8 gx = g * dx, gy = g * dy, gz = g * dz;
+  row.sx = row.sx + gx; row.sy = row.sy + gy; row.sz = row.sz + gz;
+  fx = fx + gx; fy = fy + gy; fz = fz + gz;
 }
 
 // A row's per-spring value for a block: Mode 0, the row's first block (values from a into the lanes
 // of m, which start past lane 0: expand-load); 1, a full block; 2, the row's last (lanes from 0).
 template <int Mode>
-__attribute__((target("avx512f"), always_inline)) inline __m512d all_pairs_spring_values(__mmask8 m,
-                                                                                          const double* a) noexcept {
-  if constexpr (Mode == 0) return _mm512_maskz_expandloadu_pd(m, a);
-  else if constexpr (Mode == 1) return _mm512_loadu_pd(a);
-  else return _mm512_maskz_loadu_pd(m, a);
+[[gnu::always_inline]] PALPATE_AVX512 inline simd::d8 all_pairs_spring_values(simd::k8 m, const double* a) noexcept {
+  if constexpr (Mode == 0) return simd::expand_load(m, a);
+  else if constexpr (Mode == 1) return simd::loadu<simd::d8>(a);
+  else return simd::loadu(m, a);
+}
+
+// A vertex array's eight values at an aligned block j: all (Mode 1) or the lanes in m.
+template <int Mode>
+[[gnu::always_inline]] PALPATE_AVX512 inline simd::d8 all_pairs_vertex_values(simd::k8 m, const double* a) noexcept {
+  if constexpr (Mode == 1) return simd::load<simd::d8>(a);
+  else return simd::load(m, a);
 }
 
 // Two rows i, i + 1 against one aligned block of eight columns j: the vertex values at j are loaded,
 // and f_j loaded and stored, once for both. ea, eb: the index of row a's, b's spring at the
 // block's first lane it holds (Mode 0) or at lane 0 (Modes 1, 2).
 template <bool Uniform, int Mode>
-__attribute__((target("avx512f"), always_inline)) inline void all_pairs_avx512_two(
+[[gnu::always_inline]] PALPATE_AVX512 inline void all_pairs_avx512_two(
     const double* X, const double* Y, const double* Z, const double* VX, const double* VY, const double* VZ,
     double* FX, double* FY, double* FZ, const double* RL, const double* KS, const double* CS, int j, size_t ea,
-    size_t eb, __mmask8 ma, __mmask8 mb, AllPairsRow& a, AllPairsRow& b) noexcept {
-  const __mmask8 m = static_cast<__mmask8>(ma | mb);
-#define PALPATE_LOADJ(q) (Mode == 1 ? _mm512_load_pd(q) : _mm512_maskz_load_pd(m, q))
-  const __m512d xj = PALPATE_LOADJ(X + j), yj = PALPATE_LOADJ(Y + j), zj = PALPATE_LOADJ(Z + j);
-  const __m512d vxj = PALPATE_LOADJ(VX + j), vyj = PALPATE_LOADJ(VY + j), vzj = PALPATE_LOADJ(VZ + j);
-#undef PALPATE_LOADJ
-  __m512d fx = _mm512_setzero_pd(), fy = fx, fz = fx;
-  const __m512d ka = Uniform ? _mm512_set1_pd(KS[0]) : all_pairs_spring_values<Mode>(ma, KS + ea);
-  const __m512d ca = Uniform ? _mm512_set1_pd(CS[0]) : all_pairs_spring_values<Mode>(ma, CS + ea);
+    size_t eb, simd::k8 ma, simd::k8 mb, AllPairsRow& a, AllPairsRow& b) noexcept {
+  using namespace simd;
+  const k8 m = static_cast<k8>(ma | mb);
+  const d8 xj = all_pairs_vertex_values<Mode>(m, X + j), yj = all_pairs_vertex_values<Mode>(m, Y + j),
+           zj = all_pairs_vertex_values<Mode>(m, Z + j);
+  const d8 vxj = all_pairs_vertex_values<Mode>(m, VX + j), vyj = all_pairs_vertex_values<Mode>(m, VY + j),
+           vzj = all_pairs_vertex_values<Mode>(m, VZ + j);
+  d8 fx = zero<d8>(), fy = fx, fz = fx;
+  const d8 ka = Uniform ? broadcast<d8>(KS[0]) : all_pairs_spring_values<Mode>(ma, KS + ea);
+  const d8 ca = Uniform ? broadcast<d8>(CS[0]) : all_pairs_spring_values<Mode>(ma, CS + ea);
   all_pairs_avx512_row<Uniform>(xj, yj, zj, vxj, vyj, vzj, ma, all_pairs_spring_values<Mode>(ma, RL + ea), ka, ca, a,
                                 fx, fy, fz);
-  const __m512d kb = Uniform ? _mm512_set1_pd(KS[0]) : all_pairs_spring_values<Mode>(mb, KS + eb);
-  const __m512d cb = Uniform ? _mm512_set1_pd(CS[0]) : all_pairs_spring_values<Mode>(mb, CS + eb);
+  const d8 kb = Uniform ? broadcast<d8>(KS[0]) : all_pairs_spring_values<Mode>(mb, KS + eb);
+  const d8 cb = Uniform ? broadcast<d8>(CS[0]) : all_pairs_spring_values<Mode>(mb, CS + eb);
   all_pairs_avx512_row<Uniform>(xj, yj, zj, vxj, vyj, vzj, mb, all_pairs_spring_values<Mode>(mb, RL + eb), kb, cb, b,
                                 fx, fy, fz);
   if (Mode == 1) {
-    _mm512_store_pd(FX + j, _mm512_sub_pd(_mm512_load_pd(FX + j), fx));
-    _mm512_store_pd(FY + j, _mm512_sub_pd(_mm512_load_pd(FY + j), fy));
-    _mm512_store_pd(FZ + j, _mm512_sub_pd(_mm512_load_pd(FZ + j), fz));
+    store(FX + j, load<d8>(FX + j) - fx);
+    store(FY + j, load<d8>(FY + j) - fy);
+    store(FZ + j, load<d8>(FZ + j) - fz);
   } else {
-    _mm512_mask_store_pd(FX + j, m, _mm512_sub_pd(_mm512_maskz_load_pd(m, FX + j), fx));
-    _mm512_mask_store_pd(FY + j, m, _mm512_sub_pd(_mm512_maskz_load_pd(m, FY + j), fy));
-    _mm512_mask_store_pd(FZ + j, m, _mm512_sub_pd(_mm512_maskz_load_pd(m, FZ + j), fz));
+    store(FX + j, m, load(m, FX + j) - fx);
+    store(FY + j, m, load(m, FY + j) - fy);
+    store(FZ + j, m, load(m, FZ + j) - fz);
   }
+}
+
+// The row sums' accumulator for vertex q: its position and velocity broadcast, the sums zero.
+[[gnu::always_inline]] PALPATE_AVX512 inline AllPairsRow all_pairs_row(const double* X, const double* Y,
+                                                                       const double* Z, const double* VX,
+                                                                       const double* VY, const double* VZ,
+                                                                       int q) noexcept {
+  using namespace simd;
+  return AllPairsRow{broadcast<d8>(X[q]),  broadcast<d8>(Y[q]),  broadcast<d8>(Z[q]),
+                     broadcast<d8>(VX[q]), broadcast<d8>(VY[q]), broadcast<d8>(VZ[q]),
+                     zero<d8>(),           zero<d8>(),           zero<d8>()};
 }
 
 // p must be 64-byte aligned and N a multiple of 8: every block then starts at a multiple of 8,
@@ -246,7 +248,8 @@ __attribute__((target("avx512f"), always_inline)) inline void all_pairs_avx512_t
 // its rest lengths (per-spring arrays start at the row's first spring, not aligned) expand-loaded.
 // Rows go two at a time, sharing each block's loads of x … vz and its load and store of f.
 template <bool Uniform>
-__attribute__((target("avx512f"))) void all_pairs_avx512(int n, const SpringNetwork& net, double* p, size_t N) noexcept {
+PALPATE_AVX512 void all_pairs_avx512(int n, const SpringNetwork& net, double* p, size_t N) noexcept {
+  using namespace simd;
   const double *X = p, *Y = p + N, *Z = p + 2 * N, *VX = p + 3 * N, *VY = p + 4 * N, *VZ = p + 5 * N;
   double *FX = p + 6 * N, *FY = p + 7 * N, *FZ = p + 8 * N;
   const double* RL = net.rest_length.data();
@@ -256,17 +259,12 @@ __attribute__((target("avx512f"))) void all_pairs_avx512(int n, const SpringNetw
   int i = 0;
   // Rows two at a time: row i + 1's springs start n − i − 1 after row i's.
   for (; i + 2 < n; i += 2) {
-#define PALPATE_ROW(q)                                                                                      \
-  AllPairsRow{_mm512_set1_pd(X[q]),  _mm512_set1_pd(Y[q]),  _mm512_set1_pd(Z[q]),  _mm512_set1_pd(VX[q]), \
-              _mm512_set1_pd(VY[q]), _mm512_set1_pd(VZ[q]), _mm512_setzero_pd(),   _mm512_setzero_pd(),   \
-              _mm512_setzero_pd()}
-    AllPairsRow a = PALPATE_ROW(i), b = PALPATE_ROW(i + 1);
-#undef PALPATE_ROW
+    AllPairsRow a = all_pairs_row(X, Y, Z, VX, VY, VZ, i), b = all_pairs_row(X, Y, Z, VX, VY, VZ, i + 1);
     const size_t eb = e + static_cast<size_t>(n - i - 1);  // row i + 1's first spring (i + 1, i + 2)
     const int j0 = (i + 1) & ~7;
     const int hi = std::min(8, n - j0);
     auto lanes_from = [hi](int lo) {
-      return lo >= 8 ? __mmask8{0} : static_cast<__mmask8>(((1u << hi) - 1) & ~((1u << lo) - 1));
+      return lo >= 8 ? k8{0} : static_cast<k8>(((1u << hi) - 1) & ~((1u << lo) - 1));
     };
     all_pairs_avx512_two<Uniform, 0>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, j0, e, eb, lanes_from(i + 1 - j0),
                                      lanes_from(i + 2 - j0), a, b);
@@ -277,101 +275,44 @@ __attribute__((target("avx512f"))) void all_pairs_avx512(int n, const SpringNetw
                                        e + static_cast<size_t>(j - i - 1), eb + static_cast<size_t>(j - i - 2), 0xFF,
                                        0xFF, a, b);
     if (j < n) {
-      const __mmask8 m = static_cast<__mmask8>((1u << (n - j)) - 1);
+      const k8 m = static_cast<k8>((1u << (n - j)) - 1);
       all_pairs_avx512_two<Uniform, 2>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, j,
                                        e + static_cast<size_t>(j - i - 1), eb + static_cast<size_t>(j - i - 2), m, m,
                                        a, b);
     }
-    FX[i] += _mm512_reduce_add_pd(a.sx); FY[i] += _mm512_reduce_add_pd(a.sy); FZ[i] += _mm512_reduce_add_pd(a.sz);
-    FX[i + 1] += _mm512_reduce_add_pd(b.sx); FY[i + 1] += _mm512_reduce_add_pd(b.sy);
-    FZ[i + 1] += _mm512_reduce_add_pd(b.sz);
+    FX[i] += sum(a.sx); FY[i] += sum(a.sy); FZ[i] += sum(a.sz);
+    FX[i + 1] += sum(b.sx); FY[i + 1] += sum(b.sy); FZ[i + 1] += sum(b.sz);
     e = eb + static_cast<size_t>(n - i - 2);
   }
   for (; i + 1 < n; ++i) {  // the last row when n − 1 is odd
-    const __m512d xi = _mm512_set1_pd(X[i]), yi = _mm512_set1_pd(Y[i]), zi = _mm512_set1_pd(Z[i]);
-    const __m512d vxi = _mm512_set1_pd(VX[i]), vyi = _mm512_set1_pd(VY[i]), vzi = _mm512_set1_pd(VZ[i]);
-    __m512d sx = _mm512_setzero_pd(), sy = sx, sz = sx;
+    AllPairsRow row = all_pairs_row(X, Y, Z, VX, VY, VZ, i);
     // First block: lanes j = i + 1 … within [j0, j0 + 8) and below n.
     const int j0 = (i + 1) & ~7;
     const int lo = i + 1 - j0, hi = std::min(8, n - j0);
-    const __mmask8 m0 = static_cast<__mmask8>(((1u << hi) - 1) & ~((1u << lo) - 1));
-    all_pairs_avx512_block<Uniform, false>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, e, j0, m0, xi, yi, zi, vxi,
-                                           vyi, vzi, sx, sy, sz);
+    const k8 m0 = static_cast<k8>(((1u << hi) - 1) & ~((1u << lo) - 1));
+    all_pairs_avx512_block<Uniform, false>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, e, j0, m0, row.xi, row.yi,
+                                           row.zi, row.vxi, row.vyi, row.vzi, row.sx, row.sy, row.sz);
     e += static_cast<size_t>(hi - lo);
     int j = j0 + 8;
     for (; j + 8 <= n; j += 8, e += 8)
-      all_pairs_avx512_block<Uniform, true>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, e, j, 0xFF, xi, yi, zi, vxi,
-                                            vyi, vzi, sx, sy, sz);
+      all_pairs_avx512_block<Uniform, true>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, e, j, 0xFF, row.xi, row.yi,
+                                            row.zi, row.vxi, row.vyi, row.vzi, row.sx, row.sy, row.sz);
     if (j < n) {
       const int left = n - j;  // 1 … 7
-      const __mmask8 m = static_cast<__mmask8>((1u << left) - 1);
-      all_pairs_avx512_block<Uniform, false>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, e, j, m, xi, yi, zi, vxi,
-                                             vyi, vzi, sx, sy, sz);
+      const k8 m = static_cast<k8>((1u << left) - 1);
+      all_pairs_avx512_block<Uniform, false>(X, Y, Z, VX, VY, VZ, FX, FY, FZ, RL, KS, CS, e, j, m, row.xi, row.yi,
+                                             row.zi, row.vxi, row.vyi, row.vzi, row.sx, row.sy, row.sz);
       e += static_cast<size_t>(left);
     }
-    FX[i] += _mm512_reduce_add_pd(sx); FY[i] += _mm512_reduce_add_pd(sy); FZ[i] += _mm512_reduce_add_pd(sz);
+    FX[i] += sum(row.sx); FY[i] += sum(row.sy); FZ[i] += sum(row.sz);
   }
 }
 
 #pragma GCC diagnostic pop
 
-// The uniform all-pairs forces in single precision (SpringModelOptions::single_precision), eight
-// springs at a time: 1/l from the reciprocal square root estimate and one Newton step (≈ 23 bits).
-// p is (9n) floats: x, y, z, vx, vy, vz, fx, fy, fz; RL the (s) rest lengths in float.
-__attribute__((target("avx2,fma"))) void all_pairs_avx2_single(int n, const float* RL, float k, float c,
-                                                                float* p) noexcept {
-  const size_t N = static_cast<size_t>(n);
-  const float *X = p, *Y = p + N, *Z = p + 2 * N, *VX = p + 3 * N, *VY = p + 4 * N, *VZ = p + 5 * N;
-  float *FX = p + 6 * N, *FY = p + 7 * N, *FZ = p + 8 * N;
-  const __m256 half = _mm256_set1_ps(0.5f), three = _mm256_set1_ps(3.0f), tiny = _mm256_set1_ps(1e-30f);
-  const __m256 kv = _mm256_set1_ps(k), cv = _mm256_set1_ps(c);
-  size_t e = 0;
-  for (int i = 0; i + 1 < n; ++i) {
-    const __m256 xi = _mm256_set1_ps(X[i]), yi = _mm256_set1_ps(Y[i]), zi = _mm256_set1_ps(Z[i]);
-    const __m256 vxi = _mm256_set1_ps(VX[i]), vyi = _mm256_set1_ps(VY[i]), vzi = _mm256_set1_ps(VZ[i]);
-    __m256 sx = _mm256_setzero_ps(), sy = sx, sz = sx;
-    int j = i + 1;
-    for (; j + 8 <= n; j += 8, e += 8) {
-      const __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(X + j), xi);
-      const __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(Y + j), yi);
-      const __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(Z + j), zi);
-      const __m256 l2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
-      const __m256 ok = _mm256_cmp_ps(l2, tiny, _CMP_GE_OQ);
-      const __m256 l2c = _mm256_max_ps(l2, tiny);
-      __m256 r = _mm256_rsqrt_ps(l2c);
-      r = _mm256_mul_ps(_mm256_mul_ps(half, r), _mm256_fnmadd_ps(_mm256_mul_ps(l2c, r), r, three));
-      const __m256 dvd = _mm256_fmadd_ps(
-          _mm256_sub_ps(_mm256_loadu_ps(VZ + j), vzi), dz,
-          _mm256_fmadd_ps(_mm256_sub_ps(_mm256_loadu_ps(VY + j), vyi), dy,
-                          _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(VX + j), vxi), dx)));
-      __m256 g = _mm256_fnmadd_ps(_mm256_mul_ps(kv, _mm256_loadu_ps(RL + e)), r, kv);
-      g = _mm256_fmadd_ps(_mm256_mul_ps(cv, dvd), _mm256_mul_ps(r, r), g);
-      g = _mm256_and_ps(g, ok);
-      const __m256 fx = _mm256_mul_ps(g, dx), fy = _mm256_mul_ps(g, dy), fz = _mm256_mul_ps(g, dz);
-      sx = _mm256_add_ps(sx, fx); sy = _mm256_add_ps(sy, fy); sz = _mm256_add_ps(sz, fz);
-      _mm256_storeu_ps(FX + j, _mm256_sub_ps(_mm256_loadu_ps(FX + j), fx));
-      _mm256_storeu_ps(FY + j, _mm256_sub_ps(_mm256_loadu_ps(FY + j), fy));
-      _mm256_storeu_ps(FZ + j, _mm256_sub_ps(_mm256_loadu_ps(FZ + j), fz));
-    }
-    alignas(32) float hx[8], hy[8], hz[8];
-    _mm256_store_ps(hx, sx); _mm256_store_ps(hy, sy); _mm256_store_ps(hz, sz);
-    float tx = 0, ty = 0, tz = 0;
-    for (int q = 0; q < 8; ++q) {
-      tx += hx[q]; ty += hy[q]; tz += hz[q];
-    }
-    for (; j < n; ++j, ++e) {
-      const float dx = X[j] - X[i], dy = Y[j] - Y[i], dz = Z[j] - Z[i];
-      const float l2 = dx * dx + dy * dy + dz * dz;
-      if (!(l2 >= 1e-30f)) continue;
-      const float r = 1.0f / std::sqrt(l2);
-      const float dvd = (VX[j] - VX[i]) * dx + (VY[j] - VY[i]) * dy + (VZ[j] - VZ[i]) * dz;
-      const float g = k - k * RL[e] * r + c * dvd * r * r;
-      tx += g * dx; ty += g * dy; tz += g * dz;
-      FX[j] -= g * dx; FY[j] -= g * dy; FZ[j] -= g * dz;
-    }
-    FX[i] += tx; FY[i] += ty; FZ[i] += tz;
-  }
-}
+// The uniform all-pairs forces in single precision (SpringModelOptions::single_precision) are
+// all_pairs_avx2<f8, true>: eight springs at a time, 1/l from the estimate and one Newton step
+// (≈ 23 bits), on (9n) floats x, y, z, vx, vy, vz, fx, fy, fz with the (s) rest lengths in float.
 
 void all_pairs_rows(const SpringNetwork& net, bool uniform, double* p, size_t N,
                     spring::SpringKernel kernel = spring::SpringKernel::best) noexcept {
@@ -383,8 +324,9 @@ void all_pairs_rows(const SpringNetwork& net, bool uniform, double* p, size_t N,
     if (uniform) all_pairs_avx512<true>(n, net, p, N);
     else all_pairs_avx512<false>(n, net, p, N);
   } else if (kernel != SpringKernel::scalar && has_avx2_fma()) {
-    if (uniform) all_pairs_avx2<true>(n, net, p, N);
-    else all_pairs_avx2<false>(n, net, p, N);
+    const double *RL = net.rest_length.data(), *KS = net.stiffness.data(), *CS = net.damping.data();
+    if (uniform) all_pairs_avx2<simd::d4, true>(n, RL, KS, CS, p, N);
+    else all_pairs_avx2<simd::d4, false>(n, RL, KS, CS, p, N);
   } else {
     if (uniform) all_pairs_portable<true>(n, net, p, N);
     else all_pairs_portable<false>(n, net, p, N);
@@ -410,8 +352,9 @@ void add_all_pair_forces(const SpringModel& model, const RowMat3d& x, const RowM
     X = x.col(0).array().cast<float>(); Y = x.col(1).array().cast<float>(); Z = x.col(2).array().cast<float>();
     VX = v.col(0).array().cast<float>(); VY = v.col(1).array().cast<float>(); VZ = v.col(2).array().cast<float>();
     FX.setZero(); FY.setZero(); FZ.setZero();
-    all_pairs_avx2_single(static_cast<int>(n), model.solver->rest_length_single.data(), static_cast<float>(net.stiffness[0]),
-                          static_cast<float>(net.damping[0]), q);
+    const float k = static_cast<float>(net.stiffness[0]), c = static_cast<float>(net.damping[0]);
+    all_pairs_avx2<simd::f8, true>(static_cast<int>(n), model.solver->rest_length_single.data(), &k, &c, q,
+                                   static_cast<size_t>(n));
     f.col(0).array() += FX.cast<double>(); f.col(1).array() += FY.cast<double>(); f.col(2).array() += FZ.cast<double>();
     return;
   }
