@@ -120,7 +120,7 @@ const SpringModel& cached(const std::string& key) {
     auto predictor = *spring::build_predictor(net, o, amd_columns ? spring::SparseOrdering::amd
                                                                   : spring::SparseOrdering::fewest_nonzeros);
     m = std::make_unique<SpringModel>(*build_spring_model(std::move(net), o, std::move(predictor)));
-    if (amd_columns) m->supernodes = SpringSupernodes{};  // step() then takes the column solve
+    if (amd_columns) m->solver->supernodes = spring::SpringSupernodes{};  // step() then takes the column solve
   }
   return *m;
 }
@@ -153,9 +153,9 @@ void tick(benchmark::State& state, const std::string& key) {
       static_cast<double>(p.inverse.size() * 8 + p.value.size() * 12 + p.perm.size() * 16 + p.col_start.size() * 4) /
       (1024.0 * 1024.0);
   // What the tick actually streams: the dense inverse, or the supernodal values and block rows.
-  const auto& sn = model.supernodes;
+  const auto& sn = model.solver->supernodes;
   state.counters["solve_MiB"] =
-      static_cast<double>(model.inverse_single.empty() ? p.inverse.size() * 8 : model.inverse_single.size() * 4) /
+      static_cast<double>(model.solver->inverse_single.empty() ? p.inverse.size() * 8 : model.solver->inverse_single.size() * 4) /
           (1024.0 * 1024.0) +
       static_cast<double>(sn.empty() ? p.value.size() * 12
                                      : sn.values.size() * 8 + sn.values_single.size() * 4 + sn.rows.size() * 4) /
@@ -283,12 +283,12 @@ void solve_only(benchmark::State& state, const std::string& key) {
   RowMat3d b(n, 3), x(n, 3);
   for (Eigen::Index i = 0; i < n; ++i)
     for (Eigen::Index c = 0; c < 3; ++c) b(i, c) = 1e-6 * std::sin(static_cast<double>(3 * i + c));
-  std::vector<double> scratch(spring::supernodal_scratch(model.predictor, model.supernodes));
+  std::vector<double> scratch(spring::supernodal_scratch(model.predictor, model.solver->supernodes));
   for (auto _ : state) {
-    spring::solve_supernodal(model.predictor, model.supernodes, b, x, scratch.data());
+    spring::solve_supernodal(model.predictor, model.solver->supernodes, b, x, scratch.data());
     benchmark::DoNotOptimize(x.data());
   }
-  const auto& sn = model.supernodes;
+  const auto& sn = model.solver->supernodes;
   state.counters["values_MiB"] =
       static_cast<double>(sn.values.size() * 8 + sn.values_single.size() * 4) / (1024.0 * 1024.0);
 }

@@ -73,7 +73,7 @@ TEST(SpringSolve, SupernodalSolveSolvesThePredictorSystem) {
   EXPECT_LT((A * reference - b).cwiseAbs().maxCoeff(), 1e-12 * b.cwiseAbs().maxCoeff());
   std::set<int> widths;
   for (double padding : {0.0, 0.5, 1.0}) {
-    const SpringSupernodes sn = spring::make_supernodes(*p, false, padding);
+    const spring::SpringSupernodes sn = spring::make_supernodes(*p, false, padding);
     for (size_t k = 0; k + 1 < sn.first_column.size(); ++k) widths.insert(sn.first_column[k + 1] - sn.first_column[k]);
     std::vector<double> scratch(spring::supernodal_scratch(*p, sn));
     RowMat3d x(p->n, 3);
@@ -101,7 +101,7 @@ TEST(SpringSolve, SupernodesPartitionTheColumnsAndHoldEveryEntryOfL) {
   const auto p = build_predictor(net, sparse_options());
   ASSERT_TRUE(p.ok());
   for (double padding : {0.0, 0.5}) {
-    const SpringSupernodes sn = spring::make_supernodes(*p, false, padding, 64);
+    const spring::SpringSupernodes sn = spring::make_supernodes(*p, false, padding, 64);
     ASSERT_FALSE(sn.empty());
     EXPECT_EQ(sn.first_column.front(), 0);
     EXPECT_EQ(sn.first_column.back(), p->n);
@@ -225,8 +225,8 @@ TEST(SpringSolve, EveryOrderingAndSolveGivesTheSameSteps) {
   auto old_model = build_spring_model(net, o, std::move(*old_p));
   auto new_model = build_spring_model(net, o, std::move(*new_p));
   ASSERT_TRUE(old_model.ok() && new_model.ok());
-  old_model->supernodes = SpringSupernodes{};  // the column solve
-  ASSERT_FALSE(new_model->supernodes.empty());
+  old_model->solver->supernodes = spring::SpringSupernodes{};  // the column solve
+  ASSERT_FALSE(new_model->solver->supernodes.empty());
   SpringState a = make_state(*old_model), b = make_state(*new_model);
   ToolState tool;
   tool.tip = Vec3(0.025, 0.0505, 0.025);
@@ -252,10 +252,10 @@ TEST(SpringSolve, FusedSparseStepIsTheGeneralStepExactly) {
       SpringModelOptions o = sparse_options();
       o.single_precision = single;
       SpringModel model = must_build(net, o);
-      ASSERT_FALSE(model.supernodes.empty());
+      ASSERT_FALSE(model.solver->supernodes.empty());
       SpringState fused = make_state(model), general = make_state(model);
       general.soa.resize(std::max(spring::spring_pass_scratch(model),
-                                  spring::supernodal_scratch(model.predictor, model.supernodes)));
+                                  spring::supernodal_scratch(model.predictor, model.solver->supernodes)));
       ASSERT_LT(general.soa.size(), fused.soa.size());
       ToolState tool;
       tool.tip = Vec3(0.015, 0.0335, 0.015);
@@ -286,26 +286,26 @@ TEST(SpringSolve, SinglePrecisionErrorIsBounded) {
     o.single_precision = true;
     SpringModel flt = must_build(net, o);
     if (solver == SpringSolver::sparse) {
-      EXPECT_FALSE(flt.supernodes.values_single.empty());
-      EXPECT_TRUE(flt.supernodes.values.empty());
+      EXPECT_FALSE(flt.solver->supernodes.values_single.empty());
+      EXPECT_TRUE(flt.solver->supernodes.values.empty());
     } else {
-      EXPECT_EQ(flt.inverse_single.size(), flt.predictor.inverse.size());
+      EXPECT_EQ(flt.solver->inverse_single.size(), flt.predictor.inverse.size());
     }
     const RowMat3d b = random_rhs(dbl.predictor.n, 11);
     RowMat3d x(b.rows(), 3), y(b.rows(), 3);
-    std::vector<double> scratch(std::max(spring::supernodal_scratch(dbl.predictor, dbl.supernodes),
+    std::vector<double> scratch(std::max(spring::supernodal_scratch(dbl.predictor, dbl.solver->supernodes),
                                          spring::dense_scratch(dbl.predictor.n)));
     if (solver == SpringSolver::sparse) {
-      spring::solve_supernodal(dbl.predictor, dbl.supernodes, b, x, scratch.data());
+      spring::solve_supernodal(dbl.predictor, dbl.solver->supernodes, b, x, scratch.data());
       // The float sweeps of the builds below the best (checked here; y is the best's, below).
       for (spring::SolveIsa isa : {spring::SolveIsa::x86_64, spring::SolveIsa::x86_64_v3}) {
-        spring::solve_supernodal(flt.predictor, flt.supernodes, b, y, scratch.data(), isa);
+        spring::solve_supernodal(flt.predictor, flt.solver->supernodes, b, y, scratch.data(), isa);
         EXPECT_LT(relative(y, x), 1e-6) << "x86-64 level " << static_cast<int>(isa);
       }
-      spring::solve_supernodal(flt.predictor, flt.supernodes, b, y, scratch.data());
+      spring::solve_supernodal(flt.predictor, flt.solver->supernodes, b, y, scratch.data());
     } else {
-      spring::solve_dense(dbl.predictor, dbl.inverse_single, b, x, scratch.data());
-      spring::solve_dense(flt.predictor, flt.inverse_single, b, y, scratch.data());
+      spring::solve_dense(dbl.predictor, dbl.solver->inverse_single, b, x, scratch.data());
+      spring::solve_dense(flt.predictor, flt.solver->inverse_single, b, y, scratch.data());
     }
     const double err = relative(y, x);
     std::printf("single precision solve error %.3g\n", err);
@@ -376,7 +376,7 @@ TEST(SpringSolve, SinglePrecisionAllPairsForcesStayWithinTheirBound) {
   SpringModel dbl = must_build(*net, mo);
   mo.single_precision = true;
   SpringModel flt = must_build(*net, mo);
-  EXPECT_EQ(flt.rest_length_single.size(), flt.network.springs.size());
+  EXPECT_EQ(flt.solver->rest_length_single.size(), flt.network.springs.size());
   SpringState a = make_state(dbl), b = make_state(flt);
   ToolState tool;
   tool.radius = 0.006;
@@ -497,8 +497,8 @@ TEST(SpringSolve, SymmetricDenseProductMatchesTheFullOne) {
       RowMat3d full(n, 3), sym(n, 3);
       // One double in, so the product has to find its own 64-byte boundary.
       std::vector<double> scratch(spring::dense_scratch(n) + 1);
-      spring::solve_dense(model.predictor, model.inverse_single, b, full, scratch.data() + 1, false);
-      spring::solve_dense(model.predictor, model.inverse_single, b, sym, scratch.data() + 1, true);
+      spring::solve_dense(model.predictor, model.solver->inverse_single, b, full, scratch.data() + 1, false);
+      spring::solve_dense(model.predictor, model.solver->inverse_single, b, sym, scratch.data() + 1, true);
       EXPECT_LT((sym - full).cwiseAbs().maxCoeff(), 1e-13 * full.cwiseAbs().maxCoeff()) << n << " vertices";
       EXPECT_TRUE(sym.allFinite());
     }

@@ -7,6 +7,7 @@
 
 #include "spring_fixtures.h"
 #include "tissue/spring/forces.h"
+#include "tissue/spring/layouts.h"
 #include "tissue/spring/shapes.h"
 
 #include <gtest/gtest.h>
@@ -298,7 +299,7 @@ TEST(SpringVolume, FourWideVolumePassMatchesTheScalarOneInAnyOrder) {
     const std::vector<int>* orders[] = {nullptr, &mesh_order, &reversed};
     for (const std::vector<int>* order : orders) {
       if (order) spring::layout_volume_pass(model, *order);
-      ASSERT_EQ(model.volume_corners.size(), 4 * T);
+      ASSERT_EQ(model.solver->volume_corners.size(), 4 * T);
       RowMat3d f2 = RowMat3d::Zero(s.x.rows(), 3), r2 = f2;
       spring::add_spring_forces_and_stiffness_term(model, s.x, s.v, f2, r2, s.soa.data(), true);
       EXPECT_LT((f1 - f2).cwiseAbs().maxCoeff(), 1e-12 * f1.cwiseAbs().maxCoeff())
@@ -316,8 +317,8 @@ TEST(SpringVolume, FourWideVolumePassMatchesTheScalarOneInAnyOrder) {
   const size_t G = model.network.tets.size() / 4;
   size_t shared = 0;
   for (size_t g = 0; g < G; ++g) {
-    std::vector<int> v(model.volume_corners.begin() + static_cast<std::ptrdiff_t>(16 * g),
-                       model.volume_corners.begin() + static_cast<std::ptrdiff_t>(16 * g + 16));
+    std::vector<int> v(model.solver->volume_corners.begin() + static_cast<std::ptrdiff_t>(16 * g),
+                       model.solver->volume_corners.begin() + static_cast<std::ptrdiff_t>(16 * g + 16));
     std::sort(v.begin(), v.end());
     if (std::adjacent_find(v.begin(), v.end()) != v.end()) ++shared;
   }

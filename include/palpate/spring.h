@@ -198,42 +198,29 @@ struct CacheLineAllocator {
   friend bool operator==(const CacheLineAllocator&, const CacheLineAllocator&) noexcept { return true; }
 };
 
-// The per-tick form of a sparse predictor's factor L (unit lower triangular, permuted), derived
-// from SpringPredictor when the model is built and never stored in files. Runs of consecutive
-// columns with (nearly) the same rows below them form a supernode (Liu, Ng & Peyton 1993; relaxed:
-// entries L lacks are stored as zeros, at most a quarter as many as it has), kept as one dense block, so
-// the triangular solves stream contiguous values with one row index per block row instead of one
-// per entry. S supernodes.
-struct SpringSupernodes {
-  std::vector<int> first_column;  // (S + 1) supernode k holds columns [first_column[k], first_column[k + 1])
-  std::vector<int> row_start;     // (S + 1) its rows below the block: rows[row_start[k] .. row_start[k + 1])
-  std::vector<int> rows;          // permuted row indices below each supernode, ascending
-  std::vector<size_t> value_start;  // (S + 1) a wide block's values (4 columns or more; zeros where
-                                    // L has none): from a multiple of eight, a dense block of its
-                                    // own rows and its rows below, in panels of eight rows
-                                    // (solve.cpp, WideShape); none for a narrow block
-  std::vector<double, CacheLineAllocator<double>> values;  // L's entries in that layout
-  std::vector<float, CacheLineAllocator<float>> values_single;  // the same in float instead
-                                                                 // (SpringModelOptions::single_precision)
-  // The narrow blocks (1 to 3 columns; mostly single columns of a few entries, the nested
-  // dissection's leaves) as one program of chunks of four entries, so the sweeps run through them
-  // without a loop per block or per column: chunk q holds pivot[q] (a column), four of its rows
-  // chunk_rows[4q …] and L's values there chunk_values[4q …] (only L's own entries; a column's last
-  // chunk padded with its pivot row and the value 0). A column's chunks follow each other, columns
-  // in order. Supernode k's chunks are [chunk_start[k], chunk_start[k + 1]) (none for a wide one);
-  // run_end[k] is the first wide supernode after narrow k (S when none), run_begin[k] the first of
-  // the narrow run holding k (for a wide k: k + 1 and k).
-  std::vector<int> chunk_start;   // (S + 1)
-  std::vector<int> run_end;       // (S)
-  std::vector<int> run_begin;     // (S)
-  std::vector<int> pivot;         // (C) the column of each chunk
-  std::vector<int> chunk_rows;    // (4C)
-  std::vector<double, CacheLineAllocator<double>> chunk_values;        // (4C), or empty in float
-  std::vector<float, CacheLineAllocator<float>> chunk_values_single;   // (4C) with values_single
-  int max_width = 0;              // widest supernode
-  int max_height = 0;             // tallest supernode, width + rows below, each rounded up to 8 in a
-                                  // wide block (sizes the solve's scratch)
-  bool empty() const { return first_column.empty(); }
+namespace spring {
+struct SolverLayouts;  // src/tissue/spring/layouts.h
+}
+
+// The solvers' own layouts of a model's data — the supernodal form of the sparse factor, the float
+// copies of the predictor and rest lengths, the volume pass's lanes — derived when the model is
+// built and never stored in files. Opaque here (internal: src/tissue/spring/layouts.h); copied
+// with the model (a deep copy). A moved-from one holds nothing and may only be assigned to.
+class SpringSolverLayouts {
+ public:
+  SpringSolverLayouts();
+  SpringSolverLayouts(const SpringSolverLayouts& other);
+  SpringSolverLayouts(SpringSolverLayouts&& other) noexcept;
+  SpringSolverLayouts& operator=(const SpringSolverLayouts& other);
+  SpringSolverLayouts& operator=(SpringSolverLayouts&& other) noexcept;
+  ~SpringSolverLayouts();
+  spring::SolverLayouts* operator->() noexcept { return layouts_.get(); }
+  const spring::SolverLayouts* operator->() const noexcept { return layouts_.get(); }
+  spring::SolverLayouts& operator*() noexcept { return *layouts_; }
+  const spring::SolverLayouts& operator*() const noexcept { return *layouts_; }
+
+ private:
+  std::unique_ptr<spring::SolverLayouts> layouts_;
 };
 
 // The constant part of a simulated organ, shared read-only by threads.
@@ -241,20 +228,11 @@ struct SpringModel {
   SpringNetwork network;
   SpringModelOptions options;
   SpringPredictor predictor;
-  SpringSupernodes supernodes;          // sparse: the factor as the step uses it (built from predictor)
-  std::vector<float> inverse_single;    // desbrun with single_precision: (n x n) row-major A⁻¹ in float
+  SpringSolverLayouts solver;           // the solvers' layouts of the predictor and the network (opaque)
   double uniform_stiffness = 0;         // N/m when every spring has this stiffness (else 0): K_L v in O(n)
   std::vector<double> predictor_stiffness;  // (s) N/m, each spring's weight in A (predictor_stiffness())
   bool volume_term = false;             // the network has tetrahedra with a volume modulus > 0
-  // The volume pass's tetrahedra, four at a time (spring::layout_volume_pass): in groups of four that
-  // share no corner where a nearby tetrahedron allows it, taken in the mesh's order, then the last
-  // (tets mod 4) one at a time. With volume_term:
-  std::vector<double> volume_scale;     // (tets) κ / (36 V0) of each tetrahedron, in the pass's order, Pa/m³
-  std::vector<int> volume_corners;      // (4 tets) 8 × its corners' vertex indices (offsets into the padded
-                                        // layout): group g's corner c of lane l at [16g + 4c + l]; a
-                                        // tetrahedron t of the last ones at [4t + c]
   std::vector<int> surface_vertices;    // the vertices of network.triangles, each once, ascending
-  std::vector<float> rest_length_single;  // all-pairs with single_precision and uniform springs: (s) m
   bool uniform_damping = false;         // every spring has the same damping (the all-pairs kernel reads
                                         // no per-spring stiffness or damping when both are uniform)
   std::vector<std::uint8_t> anchored;   // (n) 1 for a fixed vertex

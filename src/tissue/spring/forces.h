@@ -1,9 +1,14 @@
-// forces.h — the predictor's spring pass for generic (not all-pairs) networks, in its scalar
-// reference and AVX2 / AVX-512 forms (internal; implemented in step.cpp, used by the step and the tests).
+// forces.h — the spring and volume passes for generic (not all-pairs) networks and the all-pairs
+// kernels, in their scalar reference and AVX2 / AVX-512 forms (internal; implemented in
+// spring_pass.cpp, volume_pass.cpp and all_pairs.cpp, used by the step and the tests).
 #pragma once
 
 #include <palpate/spring.h>
 
+#include "tissue/spring/cpu.h"
+#include "tissue/spring/layouts.h"
+
+#include <cstdint>
 #include <vector>
 
 namespace palpate::spring {
@@ -23,7 +28,11 @@ inline std::array<Vec3, 4> tet_volume_gradients(const Vec3& x0, const Vec3& x1, 
 // f[fstride i …]. Returns the volume term's elastic energy Σ ½ κ (V − V0)² / V0 (J).
 double add_volume_forces(const SpringNetwork& net, const double* x, size_t stride, double* f, size_t fstride) noexcept;
 
-// Lays out the vectorised volume pass (SpringModel::volume_scale, volume_corners) for model.network's
+// The volume term's forces on the padded layout (x at xv[8i …], sums added at fr[8i …]), four
+// tetrahedra at a time in the order of SolverLayouts::volume_corners (layout_volume_pass), with AVX2 + FMA.
+void volume_pass_avx2(const SpringModel& model, const double* xv, double* fr) noexcept;
+
+// Lays out the vectorised volume pass (SolverLayouts::volume_scale, volume_corners) for model.network's
 // tetrahedra: with `order` empty, greedily in the mesh's order, each tetrahedron joining the first of
 // up to 32 open groups with which it shares no corner (so that a group's four read-modify-writes
 // per corner do not wait on each other, and nearby tetrahedra stay close for the cache); otherwise
@@ -59,12 +68,6 @@ bool spring_pass_padded_available(const SpringModel& model) noexcept;
 // from the first 64-byte boundary on (scratch is only 8-byte aligned).
 size_t spring_pass_scratch(const SpringModel& model);
 
-// Whether this processor runs the AVX2 + FMA kernels (the vectorised pass falls back otherwise).
-bool has_avx2_fma() noexcept;
-
-// Whether this processor runs the AVX-512 kernels (AVX-512 F and VL, with AVX2 + FMA).
-bool has_avx512() noexcept;
-
 // Which kernel a call takes: best, the fastest this processor runs (the step's choice); the others
 // force one (the tests compare them). One this processor lacks falls back to the next narrower.
 enum class SpringKernel { best, scalar, avx2, avx512 };
@@ -89,6 +92,9 @@ size_t all_pairs_stride(size_t n) noexcept;
 size_t all_pairs_scratch(size_t n) noexcept;
 
 // The first 64-byte boundary at or after p.
-double* align64(double* p) noexcept;
+inline double* align64(double* p) noexcept {
+  const std::uintptr_t at = reinterpret_cast<std::uintptr_t>(p);
+  return p + ((64 - at % 64) % 64) / sizeof(double);
+}
 
 }  // namespace palpate::spring

@@ -236,8 +236,8 @@ Result<SpringPredictor> spring::build_predictor(const SpringNetwork& net, const 
 }
 
 void spring::layout_volume_pass(SpringModel& m, const std::vector<int>& order) {
-  m.volume_scale.clear();
-  m.volume_corners.clear();
+  m.solver->volume_scale.clear();
+  m.solver->volume_corners.clear();
   if (!m.volume_term) return;
   const auto& tets = m.network.tets;
   const size_t T = tets.size();
@@ -277,14 +277,14 @@ void spring::layout_volume_pass(SpringModel& m, const std::vector<int>& order) {
     for (const auto& group : open) seq.insert(seq.end(), group.begin(), group.end());
   }
   const size_t G = T / 4;
-  m.volume_corners.resize(4 * T);
-  m.volume_scale.resize(T);
+  m.solver->volume_corners.resize(4 * T);
+  m.solver->volume_scale.resize(T);
   for (size_t j = 0; j < T; ++j) {
     const size_t t = static_cast<size_t>(seq[j]);
-    m.volume_scale[j] = m.network.volume_modulus / (36 * m.network.rest_volume[t]);
+    m.solver->volume_scale[j] = m.network.volume_modulus / (36 * m.network.rest_volume[t]);
     for (size_t c = 0; c < 4; ++c) {
       const size_t at = j < 4 * G ? 16 * (j / 4) + 4 * c + j % 4 : 4 * j + c;
-      m.volume_corners[at] = 8 * tets[t][c];
+      m.solver->volume_corners[at] = 8 * tets[t][c];
     }
   }
 }
@@ -300,7 +300,7 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
   m.network = std::move(network);
   m.options = options;
   m.predictor = std::move(predictor);
-  m.supernodes = spring::make_supernodes(m.predictor, options.single_precision);
+  m.solver->supernodes = spring::make_supernodes(m.predictor, options.single_precision);
   if (m.predictor.kind == SpringSolver::desbrun && m.predictor.inverse.size() == static_cast<size_t>(m.predictor.n) * static_cast<size_t>(m.predictor.n)) {
     // A⁻¹ is symmetric; the one computed column by column (or read from a file) is so only to
     // round-off. Make it exactly symmetric, so the product from its upper triangle (solve_dense)
@@ -311,7 +311,7 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
       for (size_t j = i + 1; j < n; ++j) W[i * n + j] = W[j * n + i] = 0.5 * (W[i * n + j] + W[j * n + i]);
   }
   if (options.single_precision && m.predictor.kind == SpringSolver::desbrun)
-    m.inverse_single.assign(m.predictor.inverse.begin(), m.predictor.inverse.end());
+    m.solver->inverse_single.assign(m.predictor.inverse.begin(), m.predictor.inverse.end());
   if (!m.network.stiffness.empty() &&
       std::all_of(m.network.stiffness.begin(), m.network.stiffness.end(),
                   [&](double k) { return k == m.network.stiffness.front(); }))
@@ -364,7 +364,7 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
   }
   m.all_pairs = n > 2 && is_all_pairs(m.network);
   if (m.all_pairs && options.single_precision && m.uniform_stiffness > 0 && m.uniform_damping)
-    m.rest_length_single.assign(m.network.rest_length.begin(), m.network.rest_length.end());
+    m.solver->rest_length_single.assign(m.network.rest_length.begin(), m.network.rest_length.end());
   return m;
 }
 
@@ -397,14 +397,14 @@ SpringState make_state(const SpringModel& model) {
   }
   size_t soa = model.all_pairs ? spring::all_pairs_scratch(static_cast<size_t>(n)) : 0;
   if (model.predictor.kind == SpringSolver::desbrun) soa = std::max(soa, spring::dense_scratch(static_cast<int>(n)));
-  if (!model.supernodes.empty()) soa = std::max(soa, spring::supernodal_scratch(model.predictor, model.supernodes));
+  if (!model.solver->supernodes.empty()) soa = std::max(soa, spring::supernodal_scratch(model.predictor, model.solver->supernodes));
   if (!model.all_pairs && model.predictor.kind != SpringSolver::exact)
     soa = std::max(soa, spring::spring_pass_scratch(model));
-  if (!model.all_pairs && !model.supernodes.empty())  // the fused sparse step: pass, then solve
+  if (!model.all_pairs && !model.solver->supernodes.empty())  // the fused sparse step: pass, then solve
     soa = std::max(soa, spring::spring_pass_scratch(model) +
-                            spring::supernodal_scratch(model.predictor, model.supernodes));
+                            spring::supernodal_scratch(model.predictor, model.solver->supernodes));
   s.soa.assign(soa, 0.0);
-  s.soa_single.assign(model.rest_length_single.empty() ? 0 : static_cast<size_t>(n) * 9, 0.0f);
+  s.soa_single.assign(model.solver->rest_length_single.empty() ? 0 : static_cast<size_t>(n) * 9, 0.0f);
   s.contact_slot.assign(static_cast<size_t>(n), -1);
   s.contact_code.assign(static_cast<size_t>(n), 0);
   return s;

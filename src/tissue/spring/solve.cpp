@@ -1,6 +1,9 @@
-// solve.cpp — the sparse predictor's per-tick triangular solves: supernodal (the step's) and
-// column-by-column (the reference), and the supernode partition of the factor.
+// solve.cpp — the predictor's per-tick solves: the sparse factor's triangular sweeps, supernodal
+// (the step's) and column by column (the reference), and the dense inverse's products.
 #include "tissue/spring/solve.h"
+
+#include "tissue/spring/cpu.h"
+#include "tissue/spring/supernode_layout.h"
 
 #include <algorithm>
 #include <cstdint>
@@ -38,73 +41,6 @@ typedef float f8 __attribute__((vector_size(32)));
   }
 #define PALPATE_HSUM8(s) (((s)[0] + (s)[1]) + ((s)[2] + (s)[3])) + (((s)[4] + (s)[5]) + ((s)[6] + (s)[7]))
 
-// (t0, t1, t2) = Σ_j a[j] (x[j], y[j], z[j]), j < w: one read of a for the three coordinates
-// (the dense products' rows). T is the stored value type (double, or float widened to double:
-// accumulation is in double). Four at a time, then one by one.
-template <typename T>
-__attribute__((always_inline)) inline void dot3(const T* a, const double* x, const double* y, const double* z, int w,
-                                                double& t0, double& t1, double& t2) noexcept {
-  int j = 0;
-  double r0 = 0, r1 = 0, r2 = 0;
-  d4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
-  for (; j + 4 <= w; j += 4) {
-    const d4 v = {static_cast<double>(a[j]), static_cast<double>(a[j + 1]), static_cast<double>(a[j + 2]),
-                  static_cast<double>(a[j + 3])};
-    d4 vx, vy, vz;
-    std::memcpy(&vx, x + j, sizeof vx);
-    std::memcpy(&vy, y + j, sizeof vy);
-    std::memcpy(&vz, z + j, sizeof vz);
-    s0 += v * vx;
-    s1 += v * vy;
-    s2 += v * vz;
-  }
-  r0 += (s0[0] + s0[1]) + (s0[2] + s0[3]);
-  r1 += (s1[0] + s1[1]) + (s1[2] + s1[3]);
-  r2 += (s2[0] + s2[1]) + (s2[2] + s2[3]);
-  for (; j < w; ++j) {
-    const double v = static_cast<double>(a[j]);
-    r0 += v * x[j];
-    r1 += v * y[j];
-    r2 += v * z[j];
-  }
-  t0 = r0; t1 = r1; t2 = r2;
-}
-
-// Blocks narrower than this are solved in place; wider ones on a copy of their rows (see sweeps).
-constexpr size_t kGatherWidth = 4;
-
-inline size_t round8(size_t x) noexcept { return (x + 7) & ~static_cast<size_t>(7); }
-
-// A wide block (w ≥ kGatherWidth columns, r rows below) is a dense block of rows: its own w rows
-// padded to W = w rounded up to 8, then its r rows below padded to a multiple of 8, in panels of
-// eight rows (panel p holds rows 8p … 8p + 7). Its columns form groups of eight (the last of w mod 8
-// when that is not 0); group g (columns 8g …) stores its panels from panel g, the diagonal tile
-// (L's strictly lower entries there, zeros on and above the diagonal), to the last, each panel
-// column by column, eight values per column. Every product over the block then reads it from start
-// to end, a column's eight rows are one aligned load, and the triangle is solved tile by tile with
-// the same products. The block starts at a multiple of eight values.
-struct WideShape {
-  size_t own_panels, panels;  // W / 8, all panels (own and below)
-  size_t group_start(size_t g) const noexcept {
-    // Σ over groups before g of width × 8 × (panels from that group's diagonal on); all groups
-    // but the last are eight wide.
-    return 64 * (g * panels - g * (g - 1) / 2);
-  }
-};
-inline WideShape wide_shape(size_t w, size_t r) noexcept { return {round8(w) / 8, round8(w) / 8 + round8(r) / 8}; }
-inline size_t group_width(size_t g, size_t w) noexcept { return std::min<size_t>(8, w - 8 * g); }
-inline size_t wide_block_size(size_t w, size_t r) noexcept {
-  const WideShape sh = wide_shape(w, r);
-  const size_t G = (w + 7) / 8;
-  return sh.group_start(G - 1) + group_width(G - 1, w) * 8 * (sh.panels - (G - 1));
-}
-// Where row `row` (0 … w − 1 the block's own, w + q the q-th row below) of column c is stored.
-inline size_t wide_entry(size_t w, size_t r, size_t row, size_t c) noexcept {
-  const WideShape sh = wide_shape(w, r);
-  const size_t g = c / 8, gw = group_width(g, w);
-  const size_t at = row < w ? row : 8 * sh.own_panels + (row - w);  // padded row
-  return sh.group_start(g) + (at / 8 - g) * 8 * gw + 8 * (c - 8 * g) + at % 8;
-}
 
 // Forward through a group's diagonal tile (gw columns of eight values, entries on and above the
 // diagonal zero), column by column, on the group's rows u = (ux, uy, uz) from its first column: in
@@ -544,36 +480,15 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
 #undef PALPATE_LOAD8
 #undef PALPATE_HSUM8
 
-// The sweeps and dense products compiled twice each: for AVX2 + FMA (x86-64-v3) and for any
-// x86-64, chosen per call by a CPU check (a load of a global set by libgcc's constructor). Not
-// target_clones: its ifunc resolvers run during relocation, before a sanitizer's runtime is up,
-// and crash ThreadSanitizer builds at start.
-#if defined(__clang__)
-// clang (14) knows no "x86-64-v3"/"-v4" in __builtin_cpu_supports, nor prefer-vector-width in a
-// target attribute: the levels' defining features instead (the fuzz preset builds with clang).
-bool has_x86_64_v3() noexcept {
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && __builtin_cpu_supports("bmi") &&
-         __builtin_cpu_supports("bmi2");  // every CPU with these has the rest (F16C, MOVBE, LZCNT)
-}
-#else
-bool has_x86_64_v3() noexcept { return __builtin_cpu_supports("x86-64-v3"); }
-#endif
-
-#define PALPATE_TWICE(name, params, body)                                   \
-  __attribute__((target("arch=x86-64-v3"))) void name##_v3 params noexcept body \
-  void name##_base params noexcept body
+// The sweeps compiled twice (PALPATE_TWICE, cpu.h): for x86-64-v3 and any x86-64.
 
 // The sweeps a third time for AVX-512 (x86-64-v4): the wide blocks' dots eight at a time, their
 // axpys vectorised over 512 bits.
+// (clang (14) knows no prefer-vector-width in a target attribute.)
 #if defined(__clang__)
 #define PALPATE_V4 __attribute__((target("arch=x86-64-v4")))
-bool has_x86_64_v4() noexcept {
-  return has_x86_64_v3() && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-         __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512cd");
-}
 #else
 #define PALPATE_V4 __attribute__((target("arch=x86-64-v4,prefer-vector-width=512")))
-bool has_x86_64_v4() noexcept { return __builtin_cpu_supports("x86-64-v4"); }
 #endif
 PALPATE_V4 void sweeps_double_impl_v4(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g,
                                       size_t m) noexcept {
@@ -592,22 +507,6 @@ PALPATE_TWICE(sweeps_single_impl,
               (const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m),
               { sweeps(sn, sn.values_single.data(), inv_diag, z4, g, m); })
 
-template <typename T>
-__attribute__((always_inline)) inline void dense_rows(const T* W, int n, const double* bx, const double* by,
-                                                      const double* bz, double* x) noexcept {
-  for (int i = 0; i < n; ++i) {
-    double t0, t1, t2;
-    dot3(W + static_cast<size_t>(i) * static_cast<size_t>(n), bx, by, bz, n, t0, t1, t2);
-    x[3 * i] = t0; x[3 * i + 1] = t1; x[3 * i + 2] = t2;
-  }
-}
-
-PALPATE_TWICE(dense_double_impl,
-              (const double* W, int n, const double* bx, const double* by, const double* bz, double* x),
-              { dense_rows(W, n, bx, by, bz, x); })
-PALPATE_TWICE(dense_single_impl,
-              (const float* W, int n, const double* bx, const double* by, const double* bz, double* x),
-              { dense_rows(W, n, bx, by, bz, x); })
 // x's rows (n x 3) from rows perm[i] of z4: whole four-double rows stored three doubles apart,
 // each overwriting the last one's padding (the last row by itself, x ends there).
 PALPATE_TWICE(unpermute_impl, (int n, const int* perm, const double* z4, double* x), {
@@ -616,7 +515,6 @@ PALPATE_TWICE(unpermute_impl, (int n, const int* perm, const double* z4, double*
   if (n > 0)
     std::memcpy(x + 3 * static_cast<size_t>(n - 1), z4 + 4 * static_cast<size_t>(perm[n - 1]), 3 * sizeof(double));
 })
-#undef PALPATE_TWICE
 
 // The best of the builds this CPU runs, capped at `most`.
 SolveIsa choose(SolveIsa most) noexcept {
@@ -643,201 +541,7 @@ void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* z
   }
 }
 
-#pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see step.cpp
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-
-// One block of eight columns j0 … j0 + 7 of row i of the symmetric product (lanes in m read, lanes
-// in mu also update y): acc += W_ij b_j, y_j += W_ij b_i.
-template <bool Full>
-__attribute__((target("avx512f"), always_inline)) inline void dense_symmetric_block(
-    const double* w, const double* bx, const double* by, const double* bz, double* yx, double* yy, double* yz,
-    __mmask8 m, __mmask8 mu, __m512d bix, __m512d biy, __m512d biz, __m512d& ax, __m512d& ay, __m512d& az) noexcept {
-  const __m512d v = Full ? _mm512_loadu_pd(w) : _mm512_maskz_loadu_pd(m, w);
-  ax = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(bx) : _mm512_maskz_load_pd(m, bx), ax);
-  ay = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(by) : _mm512_maskz_load_pd(m, by), ay);
-  az = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(bz) : _mm512_maskz_load_pd(m, bz), az);
-  if (Full) {
-    _mm512_store_pd(yx, _mm512_fmadd_pd(v, bix, _mm512_load_pd(yx)));
-    _mm512_store_pd(yy, _mm512_fmadd_pd(v, biy, _mm512_load_pd(yy)));
-    _mm512_store_pd(yz, _mm512_fmadd_pd(v, biz, _mm512_load_pd(yz)));
-  } else {
-    _mm512_mask_store_pd(yx, mu, _mm512_fmadd_pd(v, bix, _mm512_maskz_load_pd(mu, yx)));
-    _mm512_mask_store_pd(yy, mu, _mm512_fmadd_pd(v, biy, _mm512_maskz_load_pd(mu, yy)));
-    _mm512_mask_store_pd(yz, mu, _mm512_fmadd_pd(v, biz, _mm512_maskz_load_pd(mu, yz)));
-  }
-}
-
-// x = W b for a symmetric W (n x n, row-major) from its upper triangle only, so half of W's bytes
-// are read: row i contributes Σ_{j ≥ i} W_ij b_j to x_i and W_ij b_i to x_j for j > i (the
-// all-pairs kernel's pattern). b = (bx, by, bz) and y = (yx, yy, yz, the transposed sums) are n
-// each, N apart (N a multiple of 8) from a 64-byte boundary, so their accesses are aligned blocks
-// of eight; W's rows are read unaligned. x is (n x 3) row-major.
-__attribute__((target("avx512f"))) void dense_symmetric_avx512(const double* W, int n, const double* b, double* y,
-                                                                size_t N, double* x) noexcept {
-  const double *bx = b, *by = b + N, *bz = b + 2 * N;
-  double *yx = y, *yy = y + N, *yz = y + 2 * N;
-  std::fill(y, y + 3 * N, 0.0);
-  for (int i = 0; i < n; ++i) {
-    const double* w = W + static_cast<size_t>(i) * static_cast<size_t>(n);
-    const __m512d bix = _mm512_set1_pd(bx[i]), biy = _mm512_set1_pd(by[i]), biz = _mm512_set1_pd(bz[i]);
-    __m512d ax = _mm512_setzero_pd(), ay = ax, az = ax;
-    const int j0 = i & ~7;
-    const int lo = i - j0, hi = std::min(8, n - j0);
-    const __mmask8 m0 = static_cast<__mmask8>(((1u << hi) - 1) & ~((1u << lo) - 1));
-    const __mmask8 u0 = static_cast<__mmask8>(m0 & ~(1u << lo));  // not the diagonal
-    dense_symmetric_block<false>(w + j0, bx + j0, by + j0, bz + j0, yx + j0, yy + j0, yz + j0, m0, u0, bix, biy,
-                                 biz, ax, ay, az);
-    int j = j0 + 8;
-    for (; j + 8 <= n; j += 8)
-      dense_symmetric_block<true>(w + j, bx + j, by + j, bz + j, yx + j, yy + j, yz + j, 0xFF, 0xFF, bix, biy, biz,
-                                  ax, ay, az);
-    if (j < n) {
-      const __mmask8 m = static_cast<__mmask8>((1u << (n - j)) - 1);
-      dense_symmetric_block<false>(w + j, bx + j, by + j, bz + j, yx + j, yy + j, yz + j, m, m, bix, biy, biz, ax,
-                                   ay, az);
-    }
-    // Row i's transposed sums are complete: rows after i only update y_j for j > i.
-    x[3 * i] = _mm512_reduce_add_pd(ax) + yx[i];
-    x[3 * i + 1] = _mm512_reduce_add_pd(ay) + yy[i];
-    x[3 * i + 2] = _mm512_reduce_add_pd(az) + yz[i];
-  }
-}
-
-#pragma GCC diagnostic pop
-
-bool has_avx512() noexcept { return __builtin_cpu_supports("avx512f") && has_x86_64_v3(); }
-
-void dense_double(const double* W, int n, const double* bx, const double* by, const double* bz, double* x) noexcept {
-  if (has_x86_64_v3())
-    dense_double_impl_v3(W, n, bx, by, bz, x);
-  else
-    dense_double_impl_base(W, n, bx, by, bz, x);
-}
-
-void dense_single(const float* W, int n, const double* bx, const double* by, const double* bz, double* x) noexcept {
-  if (has_x86_64_v3())
-    dense_single_impl_v3(W, n, bx, by, bz, x);
-  else
-    dense_single_impl_base(W, n, bx, by, bz, x);
-}
-
 }  // namespace
-
-SpringSupernodes make_supernodes(const SpringPredictor& p, bool single, double max_padding, int max_width) {
-  SpringSupernodes sn;
-  const int n = p.n;
-  if (p.kind != SpringSolver::sparse || n <= 0 || p.col_start.size() != static_cast<size_t>(n) + 1) return sn;
-  const int* cs = p.col_start.data();
-  const int* rw = p.row.data();
-  // Greedy relaxed amalgamation: any run of consecutive columns can be one dense block (entries
-  // missing from L are stored as zeros), so grow a block while its stored size stays within
-  // (1 + max_padding) of the entries it holds. U is the block's row set below its last column.
-  std::vector<int> U, merged;
-  sn.first_column.push_back(0);
-  int f = 0;
-  size_t held = 0;
-  auto close_block = [&](int e) {
-    sn.first_column.push_back(e);
-    sn.rows.insert(sn.rows.end(), U.begin(), U.end());
-    sn.row_start.push_back(static_cast<int>(sn.rows.size()));
-  };
-  sn.row_start.push_back(0);
-  for (int c = 0; c < n; ++c) {
-    // Rows of column c, sorted (Eigen's are, but do not rely on it).
-    std::vector<int> rc(rw + cs[c], rw + cs[c + 1]);
-    std::sort(rc.begin(), rc.end());
-    const size_t count = rc.size();
-    if (c > f) {
-      // Try adding column c to the block [f, c): U loses c (it becomes a triangle row), gains rc.
-      merged.clear();
-      std::set_union(U.begin(), U.end(), rc.begin(), rc.end(), std::back_inserter(merged));
-      if (!merged.empty() && merged.front() == c) merged.erase(merged.begin());
-      const size_t w = static_cast<size_t>(c - f + 1);
-      const size_t stored = w * (w - 1) / 2 + merged.size() * w;
-      if (static_cast<int>(w) <= max_width &&
-          static_cast<double>(stored) <= (1.0 + max_padding) * static_cast<double>(held + count)) {
-        U.swap(merged);
-        held += count;
-        continue;
-      }
-      close_block(c);
-      f = c;
-    }
-    U = rc;
-    held = count;
-  }
-  close_block(n);
-  const size_t S = sn.first_column.size() - 1;
-  sn.value_start.assign(S + 1, 0);
-  for (size_t k = 0; k < S; ++k) {
-    const size_t w = static_cast<size_t>(sn.first_column[k + 1] - sn.first_column[k]);
-    const size_t r = static_cast<size_t>(sn.row_start[k + 1] - sn.row_start[k]);
-    sn.max_width = std::max(sn.max_width, static_cast<int>(w));
-    sn.max_height = std::max(sn.max_height, static_cast<int>(w + r));
-    if (w < kGatherWidth) {
-      sn.value_start[k + 1] = sn.value_start[k];  // in the chunk program instead
-    } else {
-      sn.value_start[k] = round8(sn.value_start[k]);  // zeros after the block before
-      sn.value_start[k + 1] = sn.value_start[k] + wide_block_size(w, r);
-      sn.max_height = std::max(sn.max_height, static_cast<int>(round8(w) + round8(r)));
-    }
-  }
-  sn.values.assign(sn.value_start[S], 0.0);
-  std::vector<int> position(static_cast<size_t>(n), -1);  // block row of each row index
-  std::vector<std::pair<int, double>> entries;
-  sn.chunk_start.assign(S + 1, 0);
-  for (size_t k = 0; k < S; ++k) {
-    const int f0 = sn.first_column[k], e = sn.first_column[k + 1];
-    const size_t w = static_cast<size_t>(e - f0);
-    sn.chunk_start[k + 1] = sn.chunk_start[k];
-    if (w < kGatherWidth) {
-      // Narrow: each column's entries of L (its rows ascending) in chunks of four, the last padded.
-      for (int c = f0; c < e; ++c) {
-        entries.clear();
-        for (int q = cs[c]; q < cs[c + 1]; ++q) entries.emplace_back(rw[q], p.value[static_cast<size_t>(q)]);
-        std::sort(entries.begin(), entries.end());
-        for (size_t q = 0; q < entries.size(); q += 4) {
-          sn.pivot.push_back(c);
-          for (size_t l = q; l < q + 4; ++l) {
-            sn.chunk_rows.push_back(l < entries.size() ? entries[l].first : c);
-            sn.chunk_values.push_back(l < entries.size() ? entries[l].second : 0.0);
-          }
-          ++sn.chunk_start[k + 1];
-        }
-      }
-      continue;
-    }
-    for (int q = sn.row_start[k]; q < sn.row_start[k + 1]; ++q) position[static_cast<size_t>(sn.rows[static_cast<size_t>(q)])] = q - sn.row_start[k];
-    const size_t rcount = static_cast<size_t>(sn.row_start[k + 1] - sn.row_start[k]);
-    for (int c = f0; c < e; ++c) {
-      const size_t i = static_cast<size_t>(c - f0);
-      for (int q = cs[c]; q < cs[c + 1]; ++q) {
-        const int r = rw[q];
-        const size_t row = r < e ? static_cast<size_t>(r - f0) : w + static_cast<size_t>(position[static_cast<size_t>(r)]);
-        sn.values[sn.value_start[k] + wide_entry(w, rcount, row, i)] = p.value[static_cast<size_t>(q)];
-      }
-    }
-  }
-  // The narrow runs' ends, for the sweeps to go through a run's chunks in one loop.
-  sn.run_end.assign(S, 0);
-  sn.run_begin.assign(S, 0);
-  const auto narrow = [&](size_t k) { return sn.first_column[k + 1] - sn.first_column[k] < static_cast<int>(kGatherWidth); };
-  for (size_t k = 0; k < S; ++k)
-    sn.run_begin[k] = narrow(k) && k > 0 && narrow(k - 1) ? sn.run_begin[k - 1] : static_cast<int>(k);
-  for (size_t k = S; k-- > 0;)
-    sn.run_end[k] = !narrow(k) ? static_cast<int>(k) + 1 : k + 1 < S && narrow(k + 1) ? sn.run_end[k + 1] : static_cast<int>(k) + 1;
-  if (single) {
-    sn.values_single.assign(sn.values.begin(), sn.values.end());
-    decltype(sn.values)().swap(sn.values);
-    sn.chunk_values_single.assign(sn.chunk_values.begin(), sn.chunk_values.end());
-    decltype(sn.chunk_values)().swap(sn.chunk_values);
-  }
-  return sn;
-}
-
-size_t supernodal_scratch(const SpringPredictor& p, const SpringSupernodes& sn) {
-  return 4 * static_cast<size_t>(p.n) + 3 * round8(static_cast<size_t>(sn.max_height));
-}
 
 void solve_supernodal_permuted(const SpringPredictor& p, const SpringSupernodes& sn, double* z4, double* g,
                                SolveIsa isa) noexcept {
@@ -893,29 +597,6 @@ void solve_columns(const SpringPredictor& p, const RowMat3d& b, RowMat3d& dv, Ro
     zd[3 * c] = a0; zd[3 * c + 1] = a1; zd[3 * c + 2] = a2;
   }
   for (int i = 0; i < n; ++i) dv.row(i) = z.row(p.perm[static_cast<size_t>(i)]);
-}
-
-}  // namespace palpate::spring
-
-namespace palpate::spring {
-
-size_t dense_scratch(int n) { return 6 * static_cast<size_t>((n + 7) / 8 * 8) + 8; }
-
-void solve_dense(const SpringPredictor& p, const std::vector<float>& inverse_single, const RowMat3d& b, RowMat3d& x,
-                 double* scratch, bool symmetric) noexcept {
-  const int n = p.n;
-  const size_t N = static_cast<size_t>((n + 7) / 8 * 8);
-  const std::uintptr_t at = reinterpret_cast<std::uintptr_t>(scratch);
-  double* bx = scratch + ((64 - at % 64) % 64) / sizeof(double);  // the first 64-byte boundary
-  double* by = bx + N;
-  double* bz = bx + 2 * N;
-  for (int i = 0; i < n; ++i) {
-    bx[i] = b(i, 0); by[i] = b(i, 1); bz[i] = b(i, 2);
-  }
-  if (inverse_single.empty() && symmetric && has_avx512())
-    dense_symmetric_avx512(p.inverse.data(), n, bx, bx + 3 * N, N, x.data());
-  else if (inverse_single.empty()) dense_double(p.inverse.data(), n, bx, by, bz, x.data());
-  else dense_single(inverse_single.data(), n, bx, by, bz, x.data());
 }
 
 }  // namespace palpate::spring

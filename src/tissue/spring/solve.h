@@ -2,7 +2,7 @@
 // permuted triangular solves over it (internal; used by model.cpp, step.cpp and the tests).
 #pragma once
 
-#include <palpate/spring.h>
+#include "tissue/spring/layouts.h"
 
 namespace palpate::spring {
 
