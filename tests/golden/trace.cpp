@@ -5,7 +5,7 @@
 #include <palpate/run.h>
 #include <palpate/scene.h>
 
-#include "tissue/spring/forces.h"
+#include "tissue/spring/cpu.h"
 
 #include <fmt/format.h>
 #include <zlib.h>
