@@ -59,6 +59,10 @@ PALPATE_AVX2 void all_pairs_avx2(int n, const T* RL, const T* KS, const T* CS, T
   const T *X = p, *Y = p + N, *Z = p + 2 * N, *VX = p + 3 * N, *VY = p + 4 * N, *VZ = p + 5 * N;
   T *FX = p + 6 * N, *FY = p + 7 * N, *FZ = p + 8 * N;
   const V tiny = broadcast<V>(kTiny);
+  // Uniform: one stiffness and damping, read once (f's stores could alias KS and CS as far as the
+  // compiler knows, so a read in the loop would be repeated).
+  const T k0 = KS[0], c0 = CS[0];
+  const V k0v = broadcast<V>(k0), c0v = broadcast<V>(c0);
   size_t e = 0;
   for (int i = 0; i + 1 < n; ++i) {
     const V xi = broadcast<V>(X[i]), yi = broadcast<V>(Y[i]), zi = broadcast<V>(Z[i]);
@@ -72,8 +76,8 @@ PALPATE_AVX2 void all_pairs_avx2(int n, const T* RL, const T* KS, const T* CS, T
       const V l2c = max(l2, tiny);
       V r = rsqrt_estimate(l2c);
       for (int it = 0; it < kNewtonSteps; ++it) r = rsqrt_newton_step_avx2(l2c, r);
-      const V k = Uniform ? broadcast<V>(KS[0]) : loadu<V>(KS + e);
-      const V c = Uniform ? broadcast<V>(CS[0]) : loadu<V>(CS + e);
+      const V k = Uniform ? k0v : loadu<V>(KS + e);
+      const V c = Uniform ? c0v : loadu<V>(CS + e);
       const V dvd = fma(loadu<V>(VZ + j) - vzi, dz, fma(loadu<V>(VY + j) - vyi, dy, (loadu<V>(VX + j) - vxi) * dx));
       // g = k − k L r + c (Δv·d) r², zero where the vertices coincide.
       const V g = select_or_zero(ok, all_pairs_spring_factor_avx2(k, c, loadu<V>(RL + e), r, dvd));
@@ -90,7 +94,7 @@ PALPATE_AVX2 void all_pairs_avx2(int n, const T* RL, const T* KS, const T* CS, T
       if (!(l2 >= kTiny)) continue;
       const T r = T(1) / std::sqrt(l2);
       const T dvd = (VX[j] - VX[i]) * dx + (VY[j] - VY[i]) * dy + (VZ[j] - VZ[i]) * dz;
-      const T g = all_pairs_spring_factor(Uniform ? KS[0] : KS[e], Uniform ? CS[0] : CS[e], RL[e], r, dvd);
+      const T g = all_pairs_spring_factor(Uniform ? k0 : KS[e], Uniform ? c0 : CS[e], RL[e], r, dvd);
       tx += g * dx; ty += g * dy; tz += g * dz;
       FX[j] -= g * dx; FY[j] -= g * dy; FZ[j] -= g * dz;
     }
