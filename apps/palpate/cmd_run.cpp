@@ -127,7 +127,7 @@ int run_command(const RunArgs& a) {
                s.step_p99 * 1e6, s.step_max * 1e6);
     std::string stages;
     for (size_t i = 0; i < kTickStageCount; ++i)
-      stages += fmt::format("{}{} {:.1f}", i ? ", " : "", tick_stage_name(TickStage(i)), s.stages[i].median * 1e6);
+      stages += fmt::format("{}{} {:.2f}", i ? ", " : "", tick_stage_name(TickStage(i)), s.stages[i].median * 1e6);
     fmt::print("stages     median us: {}\n", stages);
     if (s.realtime)
       fmt::print("period     median {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; {} deadline misses\n",
