@@ -17,8 +17,6 @@ namespace palpate {
 
 namespace {
 
-// The row's fixed columns (tick.cpp writes them); tissue figures follow (and the proxy's, if any).
-enum Col : size_t { kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kTick, kQw, kQx, kQy, kQz, kButtons, kEvents, kFixedColumns };
 
 TimingFigures figures_of(const LatencyHistogram& h) {
   return {h.percentile(0.5), h.percentile(0.99), h.max()};

@@ -21,6 +21,12 @@
 
 namespace palpate {
 
+// The row's fixed columns (run.csv): create() names them, the tick's record stage writes them;
+// tissue figures follow (and the proxy's, if any), then each extra tool's kToolColumns.
+enum LoopColumn : size_t {
+  kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kTick, kQw, kQx, kQy, kQz, kButtons, kEvents, kFixedColumns
+};
+
 // A double shared between threads, written by one.
 struct RelaxedDouble {
   std::atomic<double> v{0};

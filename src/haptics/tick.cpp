@@ -13,13 +13,6 @@
 
 namespace palpate {
 
-namespace {
-
-// Row layout of run.csv; tissue figures follow the fixed columns (and the proxy's, if any).
-enum Col : size_t { kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kTick, kQw, kQx, kQy, kQz, kButtons, kEvents };
-
-}  // namespace
-
 const char* tick_stage_name(TickStage stage) noexcept {
   switch (stage) {
     case TickStage::read_devices: return "read_devices";

@@ -209,15 +209,11 @@ std::string compare(const Trace& golden, const Trace& got, const Tolerance& tol)
   if (golden.rows() != got.rows())
     return fmt::format("golden has {} ticks, this run {}", golden.rows(), got.rows());
   size_t differ = 0, first_tick = 0, first_col = 0;
-  double max_force = 0, max_pose = 0;
   for (size_t c = 0; c < golden.columns.size(); ++c) {
-    const bool force = is_force(golden.columns[c]);
-    const double limit = force ? tol.force : tol.pose;
+    const double limit = is_force(golden.columns[c]) ? tol.force : tol.pose;
     for (size_t i = 0; i < golden.rows(); ++i) {
       const double a = golden.values[c][i], b = got.values[c][i];
       const double d = std::isnan(a) && std::isnan(b) ? 0.0 : std::abs(a - b);
-      double& mx = force ? max_force : max_pose;
-      if (!(d <= mx)) mx = std::isnan(d) ? INFINITY : d;
       if (!(d <= limit)) {
         if (differ == 0 || i < first_tick) first_tick = i, first_col = c;
         ++differ;
@@ -225,12 +221,13 @@ std::string compare(const Trace& golden, const Trace& got, const Tolerance& tol)
     }
   }
   if (differ == 0) return "";
+  const Differences largest = largest_differences(golden, got);
   const std::string& name = golden.columns[first_col];
   return fmt::format(
       "{} values differ beyond tolerance ({} N force, {} pose); first at tick {} (t = {} s), column {}: "
       "golden {:.17g}, this run {:.17g}; largest difference: force {:.3g} N, pose {:.3g}",
       differ, tol.force, tol.pose, first_tick, golden.values[0][first_tick], name,
-      golden.values[first_col][first_tick], got.values[first_col][first_tick], max_force, max_pose);
+      golden.values[first_col][first_tick], got.values[first_col][first_tick], largest.force, largest.pose);
 }
 
 }  // namespace palpate::golden
