@@ -133,7 +133,7 @@ int run_command(const RunArgs& a) {
       fmt::print("period     median {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; {} deadline misses\n",
                  s.period.median * 1e3, s.period.p99 * 1e3, s.period.max * 1e3, s.deadline_misses);
     const SafetyCounters& c = s.safety;
-    if (c.non_finite + c.step_failed + c.overrun + c.stalled + c.device_failed > 0)
+    if (c.zeroed() > 0)
       fmt::print("safety     non-finite {}, step failed {}, overrun {}, stalled {}, device failed {}\n",
                  c.non_finite, c.step_failed, c.overrun, c.stalled, c.device_failed);
     if (s.recorder_dropped > 0) fmt::print("recorder   {} rows dropped\n", s.recorder_dropped);

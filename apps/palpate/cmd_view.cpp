@@ -79,7 +79,7 @@ void add_view_command(CLI::App& app) {
   view->add_option("--overrun-margin", args->options.overrun_margin,
                    "Haptic watchdog: s past a tick's deadline before force goes to zero (default: the library's)")
       ->check(CLI::Range(0.0, 1.0));
-  view->add_option("--settle", args->options.settle, "With --probe and --exit: s to hold still before the screenshot")
+  view->add_option("--settle", args->options.settle, "With --probe and --exit: s to hold still (wall and simulated time, no tick zeroed by the safety filter) before the screenshot")
       ->check(CLI::Range(0.0, 60.0));
   view->add_flag("!--no-panels", args->options.panels, "Hide the ImGui panels");
   view->callback([args] { throw CLI::RuntimeError(view_command(*args)); });

@@ -40,6 +40,9 @@ struct SafetyCounters {
   std::uint64_t overrun = 0;        // ticks zeroed by the watchdog: work past deadline + margin
   std::uint64_t stalled = 0;        // ticks zeroed by the watchdog: a physics thread stalled
   std::uint64_t device_failed = 0;  // ticks zeroed because the device read failed or was NaN
+
+  // Ticks the filter sent zero for (each restarts the ramp-in); clamping and rate limits excluded.
+  std::uint64_t zeroed() const noexcept { return non_finite + step_failed + overrun + stalled + device_failed; }
 };
 
 // When the watchdog steps in (realtime runs; a headless run has no wall-clock deadline).

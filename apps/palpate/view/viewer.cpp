@@ -225,6 +225,7 @@ class Viewer {
   void finish_rebuild();
   std::optional<double> pick_surface(const Vec3& origin, const Vec3& dir) const;
   bool scripted_probe_step(int width, int height);
+  void restart_settle();
   bool take_screenshot(const std::filesystem::path& file, int fb_width, int fb_height);
   void start_probe();          // the probe's device, feeder, force law and ultrasound feed
   // Shift + right drag / wheel, shift + ctrl + left drag; true when the probe took the input.
@@ -297,6 +298,8 @@ class Viewer {
   enum class ProbeStage { none, pick, approach, press, settle, done } stage_ = ProbeStage::none;
   Vec3 probe_final_ = Vec3::Zero();
   Clock::time_point settle_start_;
+  std::uint64_t settle_tick_ = 0;    // the haptic loop's tick when the settle (re)started
+  std::uint64_t settle_zeroed_ = 0;  // the safety filter's zeroed ticks then
 
   // Live force.
   Vec3 force_ = Vec3::Zero();
@@ -490,6 +493,13 @@ void Viewer::frame_input(int width, int height) {
   }
 }
 
+void Viewer::restart_settle() {
+  settle_start_ = Clock::now();
+  const LoopStats st = loop_ ? loop_->stats() : LoopStats{};
+  settle_tick_ = st.ticks;
+  settle_zeroed_ = st.safety.zeroed();
+}
+
 bool Viewer::scripted_probe_step(int width, int height) {
   switch (stage_) {
     case ProbeStage::pick: {
@@ -515,14 +525,25 @@ bool Viewer::scripted_probe_step(int width, int height) {
       break;
     case ProbeStage::press:
       if (feeder_->arrived()) {
-        settle_start_ = Clock::now();
+        restart_settle();
         stage_ = ProbeStage::settle;
       }
       break;
-    case ProbeStage::settle:
-      if (std::chrono::duration<double>(Clock::now() - settle_start_).count() >= options_.settle)
-        stage_ = ProbeStage::done;
+    case ProbeStage::settle: {
+      // Held still for `settle` seconds of wall time and of simulated time (a loop that cannot keep
+      // up, as under a sanitizer, runs fewer ticks than the clock says), with no tick zeroed by the
+      // safety filter meanwhile: a zeroed tick restarts the force's ramp, and the exit screenshot
+      // and force would show that ramp instead of the pressed tissue's force. One restarts the wait.
+      const LoopStats st = loop_ ? loop_->stats() : LoopStats{};
+      if (st.safety.zeroed() != settle_zeroed_) {
+        restart_settle();
+        break;
+      }
+      const double wall = std::chrono::duration<double>(Clock::now() - settle_start_).count();
+      const double simulated = loop_ ? double(st.ticks - settle_tick_) * scene_.dt : wall;
+      if (wall >= options_.settle && simulated >= options_.settle) stage_ = ProbeStage::done;
       break;
+    }
     case ProbeStage::none:
     case ProbeStage::done:
       break;
@@ -977,6 +998,9 @@ int Viewer::run() {
     const LoopStats st = loop_->stats();
     fmt::print("haptic_ticks: {}\n", st.ticks);
     fmt::print("deadline_misses: {}\n", st.deadline_misses);
+    fmt::print("zeroed_ticks: {} (overrun {}, stalled {}, step_failed {}, device_failed {}, non_finite {})\n",
+               st.safety.zeroed(), st.safety.overrun, st.safety.stalled, st.safety.step_failed,
+               st.safety.device_failed, st.safety.non_finite);
     // What the Outcome panel showed last (docs/cvc.md): the loop's live metrics.
     const TrainingMetrics& m = st.metrics;
     fmt::print("outcome: {}\n", outcome_name(m.outcome));
