@@ -1,5 +1,6 @@
 // bench_mesh.cpp — cost of loading the shared liver meshes and of describe(): load-time work, not the 1 kHz path.
 #include <palpate/mesh.h>
+#include <palpate/mesh_load.h>
 
 #include <benchmark/benchmark.h>
 

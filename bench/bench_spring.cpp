@@ -2,6 +2,8 @@
 // precomputing and loading a predictor, and of a baseline that re-factorises every tick.
 #include <palpate/mesh.h>
 #include <palpate/spring.h>
+#include <palpate/mesh_load.h>
+#include <palpate/meshing.h>
 
 #include "tissue/spring/forces.h"
 #include "tissue/spring/shapes.h"

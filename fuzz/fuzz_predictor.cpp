@@ -6,6 +6,7 @@
 // With FUZZ_PREDICTOR_SEEDS=<dir> set, it first writes the two real predictor files there (the
 // seed corpus) .
 #include <palpate/spring.h>
+#include <palpate/mesh_load.h>
 
 #include "fuzz_common.h"
 #include "io/predictor_file.h"

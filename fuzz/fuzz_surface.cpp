@@ -1,6 +1,7 @@
 // fuzz_surface.cpp — load_surface on the input saved as input<FUZZ_EXTENSION> (one target per
 // documented format: .obj, .ply, .stl, .off; assimp picks the reader, palpate's checks run first).
 #include <palpate/mesh.h>
+#include <palpate/mesh_load.h>
 
 #include "fuzz_common.h"
 

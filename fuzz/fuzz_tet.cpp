@@ -1,6 +1,7 @@
 // fuzz_tet.cpp — load_tet on the input saved as input<FUZZ_EXTENSION>: .msh (Gmsh v1/v2/v4, ASCII
 // and binary, through Gmsh after palpate's own checks) or .vtk (legacy ASCII, palpate's reader).
 #include <palpate/mesh.h>
+#include <palpate/mesh_load.h>
 
 #include "fuzz_common.h"
 

@@ -2,6 +2,7 @@
 // into input.node (before) and input.ele (after); without the line, all of it is the .node and the
 // .ele is empty.
 #include <palpate/mesh.h>
+#include <palpate/mesh_load.h>
 
 #include "fuzz_common.h"
 

@@ -1,5 +1,6 @@
 // test_charged_mesh.cpp — charged-particle patches laid on surface meshes (CGAL isotropic remeshing).
 #include <palpate/charged.h>
+#include <palpate/mesh_load.h>
 
 #include <gtest/gtest.h>
 

@@ -8,6 +8,7 @@
 #include <palpate/mesh.h>
 #include <palpate/scene.h>
 #include <palpate/spring.h>
+#include <palpate/mesh_load.h>
 
 #include <gtest/gtest.h>
 

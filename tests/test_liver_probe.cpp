@@ -6,6 +6,7 @@
 #include <palpate/mesh.h>
 #include <palpate/scene.h>
 #include <palpate/tissue.h>
+#include <palpate/mesh_load.h>
 
 #include <gtest/gtest.h>
 

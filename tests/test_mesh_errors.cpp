@@ -1,5 +1,6 @@
 // test_mesh_errors.cpp — bad mesh files: each is refused with an error naming the file and the line or element.
 #include <palpate/mesh.h>
+#include <palpate/mesh_load.h>
 
 #include "mesh_test_files.h"
 

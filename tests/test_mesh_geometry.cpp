@@ -1,5 +1,6 @@
 // test_mesh_geometry.cpp — normals, tetrahedral boundary, describe() statistics and validation tolerances.
 #include <palpate/mesh.h>
+#include <palpate/mesh_load.h>
 
 #include "mesh_test_files.h"
 

@@ -1,5 +1,6 @@
 // test_mesh_load.cpp — loading good files of every format: the shared liver variants and the hand-made cubes.
 #include <palpate/mesh.h>
+#include <palpate/mesh_load.h>
 
 #include "mesh_test_files.h"
 

@@ -1,5 +1,7 @@
 // test_mesh_tetrahedralize.cpp — filling closed surfaces with tetrahedra through Gmsh.
 #include <palpate/mesh.h>
+#include <palpate/mesh_load.h>
+#include <palpate/meshing.h>
 
 #include "mesh_test_files.h"
 #include "tissue/spring/shapes.h"

@@ -1,6 +1,6 @@
 // test_plots.cpp — the run's plots: whole PNGs or none. A full disk (here a file-size limit that
 // gnuplot inherits) makes gnuplot write a PNG cut short and still exit 0: it is never put in place.
-#include "io/plots.h"
+#include "simulation/plots.h"
 
 #include <gtest/gtest.h>
 

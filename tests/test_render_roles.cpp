@@ -2,7 +2,7 @@
 // through a translucent skin, the needle shows under the skin, and a scene without roles draws
 // exactly as before roles existed (tests/data/render/frame_roleless.png, made by that code).
 #include <palpate/render.h>
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 #include <palpate/tissue.h>
 
 #include <gtest/gtest.h>

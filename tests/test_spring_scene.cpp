@@ -6,6 +6,7 @@
 #include <palpate/scene.h>
 #include <palpate/spring.h>
 #include <palpate/tissue.h>
+#include <palpate/mesh_load.h>
 
 #include "sanitized.h"
 

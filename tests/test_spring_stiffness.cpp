@@ -4,6 +4,7 @@
 // sphere past half its radius.
 #include <palpate/mesh.h>
 #include <palpate/spring.h>
+#include <palpate/meshing.h>
 
 #include "spring_fixtures.h"
 #include "sanitized.h"

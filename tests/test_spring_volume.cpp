@@ -4,6 +4,7 @@
 // the exact solver and the predictors agree on its equilibrium.
 #include <palpate/mesh.h>
 #include <palpate/spring.h>
+#include <palpate/mesh_load.h>
 
 #include "spring_fixtures.h"
 #include "tissue/spring/forces.h"

@@ -3,7 +3,7 @@
 // bright segment where the geometry puts it, speckle is fully developed, and the same inputs give the
 // same image.
 #include <palpate/anatomy.h>
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 #include <palpate/ultrasound.h>
 
 #include <gtest/gtest.h>

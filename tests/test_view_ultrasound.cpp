@@ -5,7 +5,7 @@
 // The viewer's parts are compiled into the tests directly (they are not in the library).
 #include "../apps/palpate/view/ultrasound_feed.cpp"
 
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 
 #include <atomic>
 #include <chrono>

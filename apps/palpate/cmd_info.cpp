@@ -1,5 +1,6 @@
 // cmd_info.cpp — `palpate info FILE`: what a mesh holds and whether a model can use it.
 #include <palpate/palpate.h>
+#include <palpate/mesh_load.h>
 
 #include "commands.h"
 

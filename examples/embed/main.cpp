@@ -1,6 +1,7 @@
 // main.cpp — embedding palpate: load an organ mesh and describe it, build a scene from text,
 // and step its tissue under a tool by hand, the way a simulator's own haptic loop would.
 #include <palpate/palpate.h>
+#include <palpate/mesh_load.h>
 
 #include <cstdio>
 

@@ -5,7 +5,7 @@
 #include <palpate/charged_def.h>
 #include <palpate/core.h>
 #include <palpate/mesh.h>
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 #include <palpate/tissue.h>
 
 #include <array>

@@ -1,4 +1,5 @@
-// palpate/mesh.h — surface and tetrahedral meshes, their loaders, validation and statistics.
+// palpate/mesh.h — surface and tetrahedral meshes (core): their types, validation and statistics.
+// Loading them is palpate/mesh_load.h (io), filling a surface with tetrahedra palpate/meshing.h.
 #pragma once
 
 #include <palpate/core.h>
@@ -34,22 +35,6 @@ struct SurfaceRequirements {
   bool closed = false;    // every edge shared by exactly two triangles
 };
 
-// Load a surface: OBJ, STL (ASCII and binary), PLY, OFF (through assimp; any other extension is
-// refused, even one assimp reads: only these four are tested and fuzzed). Triangulated, all meshes of the file concatenated, vertices
-// merged by exact position (corners that differ only in normal or UV become one vertex), normals
-// computed, validated against `need`; `scale` (> 0) multiplies every coordinate. A closed,
-// consistently oriented surface whose triangles face inward is turned outward. Errors start with
-// the file's path, e.g. "liver.obj: triangle 17 has vertex index 999 out of range [0, 181)".
-Result<SurfaceMesh> load_surface(const std::filesystem::path& file, double scale = 1.0,
-                                 const SurfaceRequirements& need = {});
-
-// Load a tetrahedral mesh: Gmsh .msh (v1, v2, v4 ASCII or binary, through Gmsh; vertices in node
-// tag order, only 4-node tetrahedra kept), TetGen .node/.ele (either file's path; 0- or 1-based;
-// quadratic elements keep their corners), legacy ASCII VTK unstructured grid (.vtk, file versions
-// up to 5.1; cells of type 10 kept). Validated: no empty mesh, no NaN/Inf, indices in range, no
-// degenerate or inverted tetrahedra. Errors name the file, and the line where the reader knows it.
-Result<TetMesh> load_tet(const std::filesystem::path& file, double scale = 1.0);
-
 // Validation on meshes built in memory; `where` names the source at the head of the message.
 // Checks, in order: vertices exist and are finite; elements exist; indices in range; no element
 // with area (volume) below 1e-12 x mean edge² (edge³); tetrahedra positively oriented; for a
@@ -60,12 +45,6 @@ Status validate(const TetMesh& m, const std::string& where);
 
 // Recompute area-weighted unit vertex normals of a surface (a vertex no triangle uses gets 0).
 void compute_normals(SurfaceMesh& m);
-
-// Fill a closed, manifold surface with tetrahedra (Gmsh's Delaunay mesher). The surface's
-// triangles are kept as the boundary (not remeshed); its used vertices come first, in their order.
-// `max_edge` (m) bounds the tetrahedra's size, 0 = as the surface's edges. The result is
-// validated and positively oriented; an open or non-manifold surface is refused.
-Result<TetMesh> tetrahedralize(const SurfaceMesh& surface, double max_edge = 0.0);
 
 // A region of a tetrahedral fill meshed finer (a graded mesh, e.g. under an indenter): within
 // `radius` (m) of `center` the tetrahedra's edges are about `size` (m); beyond it the size grows
@@ -82,10 +61,6 @@ struct FillOptions {
   double max_edge = 0.0;                // m, 0 = as the surface's edges
   std::vector<FillRefinement> refine;   // each region's size applies where it is the smallest
 };
-// The same fill with a size field: the size at a point is the smallest of max_edge (when > 0) and
-// each refinement's size + growth · max(0, distance − radius). Options are checked first (errors
-// name the refinement and the field, e.g. "tetrahedralize: refine[0].size is -1, expected ...").
-Result<TetMesh> tetrahedralize(const SurfaceMesh& surface, const FillOptions& options);
 
 // The boundary triangles of a tetrahedral mesh (faces used by one tetrahedron), outward oriented
 // (also for inverted tetrahedra), over the same vertices, in tetrahedron order; normals computed.

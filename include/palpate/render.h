@@ -4,7 +4,8 @@
 #pragma once
 
 #include <palpate/core.h>
-#include <palpate/scene.h>
+#include <palpate/image.h>
+#include <palpate/scene_def.h>
 
 #include <array>
 #include <cstdint>
@@ -74,12 +75,6 @@ struct RenderScene {
   int supersample = 2;                  // render at k x k the size and average down (anti-aliasing), 1..4
 };
 
-// An 8-bit RGBA image, rows top to bottom.
-struct Image {
-  int width = 0, height = 0;
-  std::vector<uint8_t> rgba;            // (height x width x 4)
-  const uint8_t* pixel(int x, int y) const { return &rgba[(size_t(y) * width + x) * 4]; }
-};
 
 // The largest image side off-screen drawing makes (render_rgba, frames of `palpate run --frames`).
 inline constexpr int kMaxOffscreenSide = 4096;  // pixels
@@ -90,12 +85,9 @@ inline constexpr int kMaxOffscreenSide = 4096;  // pixels
 // matching positions, an index out of range, an unknown tool kind; or when OpenGL is unavailable.
 Result<Image> render_rgba(const RenderScene& scene);
 
-// render_rgba, then write_png.
+// render_rgba, then write_png (palpate/image.h).
 Status render_png(const RenderScene& scene, const std::filesystem::path& file);
 
-// Write a PNG atomically: to a temporary file beside `file`, renamed over it when complete, so
-// a reader never sees half an image. Fails naming the file when it cannot be written.
-Status write_png(const Image& image, const std::filesystem::path& file);
 
 // Where a point lands in the camera's image: x to the right, y down, in pixels from the image's
 // top-left corner (a pixel's centre is at +0.5); nothing for a point behind the camera. The same

@@ -5,7 +5,7 @@
 #include <palpate/haptics.h>
 #include <palpate/render.h>
 #include <palpate/safety.h>
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 
 #include <array>
 #include <atomic>

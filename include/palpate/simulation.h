@@ -8,7 +8,7 @@
 #include <palpate/core.h>
 #include <palpate/device.h>
 #include <palpate/haptics.h>
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 #include <palpate/snapshot_tissue.h>
 #include <palpate/tissue.h>
 

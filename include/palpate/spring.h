@@ -331,7 +331,7 @@ Vec3 linear_momentum(const SpringModel& model, const SpringState& state) noexcep
 Vec3 angular_momentum(const SpringModel& model, const SpringState& state) noexcept;        // about 0
 double max_displacement(const SpringModel& model, const SpringState& state) noexcept;      // m
 
-struct ContactPatch;  // palpate/haptics.h
+struct ContactPatch;  // palpate/contact.h
 
 // The compliance of an organ's vertices to loads held over one step (issue 24; docs/haptics.md,
 // Multi-rate): a force L_j (N) on vertex j enters the step's right-hand side as h L_j, so the step

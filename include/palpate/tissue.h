@@ -2,7 +2,7 @@
 #pragma once
 
 #include <palpate/core.h>
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 
 #include <array>
 #include <cstdint>
@@ -48,7 +48,7 @@ struct TissueSnapshot {
 
 // A tissue model instance wired into a scene. `step` is the 1 kHz path: noexcept, no allocation,
 // no locks, no I/O. Numerical trouble is recovered inside (state reset, zero force, an event).
-class ContactComplianceSource;  // palpate/haptics.h
+class ContactComplianceSource;  // palpate/contact.h
 
 class Tissue {
  public:

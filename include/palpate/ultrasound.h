@@ -5,8 +5,8 @@
 #pragma once
 
 #include <palpate/core.h>
-#include <palpate/haptics.h>
-#include <palpate/scene.h>
+#include <palpate/contact.h>
+#include <palpate/scene_def.h>
 
 #include <complex>
 #include <cstdint>

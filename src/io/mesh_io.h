@@ -15,9 +15,6 @@ Result<TetMesh> read_gmsh(const std::filesystem::path& file);    // tet_gmsh.cpp
 Result<TetMesh> read_tetgen(const std::filesystem::path& file);  // tet_tetgen.cpp, .node + .ele
 Result<TetMesh> read_vtk(const std::filesystem::path& file);     // tet_vtk.cpp, legacy ASCII
 
-// Gmsh's Delaunay fill of a closed, manifold surface (tet_gmsh.cpp); orientation not yet fixed.
-Result<TetMesh> gmsh_fill(const SurfaceMesh& surface, const FillOptions& options, const std::string& where);
-
 // An error when `file` is missing, not a regular file or unreadable; names the file.
 Status check_readable(const std::filesystem::path& file);
 

@@ -2,17 +2,12 @@
 // the YAML parser (scene_yaml.cpp) and the reference renderer (scene_params.cpp) share.
 #pragma once
 
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 
 #include <span>
 #include <string>
 
 namespace palpate {
-
-// Tables of the two Defs that scene.h does not publish: their scalar keys are parsed generically,
-// like every other section's.
-std::span<const Param<TissueDef>> param_table(const TissueDef*);
-std::span<const Param<Waypoint>> param_table(const Waypoint*);
 
 // A key whose value is a mapping or a list, parsed by hand rather than through a table row.
 struct SectionKey {

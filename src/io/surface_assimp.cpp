@@ -1,6 +1,7 @@
 // surface_assimp.cpp — load_surface: OBJ, STL, PLY, OFF (and any other format assimp reads) into a
 // merged, validated SurfaceMesh. The only file of palpate that includes assimp's headers.
 #include <palpate/mesh.h>
+#include <palpate/mesh_load.h>
 
 #include "core/mesh_topology.h"
 #include "io/mesh_io.h"

@@ -1,6 +1,7 @@
 // tet_load.cpp — load_tet: dispatch to the tetrahedral readers by extension, then scale and validate;
 // file helpers shared by all mesh loaders.
 #include <palpate/mesh.h>
+#include <palpate/mesh_load.h>
 
 #include "io/mesh_io.h"
 

@@ -549,4 +549,10 @@ Result<Image> render_rgba(const RenderScene& scene) {
   return img;
 }
 
+Status render_png(const RenderScene& scene, const std::filesystem::path& file) {
+  auto image = render_rgba(scene);
+  if (!image) return Error{file.string() + ": " + image.error().message};
+  return write_png(*image, file);
+}
+
 }  // namespace palpate

@@ -6,7 +6,7 @@
 // probe's point-spread function (axial × lateral, the lateral width growing away from the focus:
 // Gao et al. 2009's separable convolution), envelope detection and log compression.
 #include <palpate/anatomy.h>
-#include <palpate/render.h>
+#include <palpate/image.h>
 #include <palpate/ultrasound.h>
 
 #include <algorithm>

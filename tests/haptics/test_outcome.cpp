@@ -4,7 +4,7 @@
 #include <palpate/charged.h>
 #include <palpate/outcome.h>
 #include <palpate/run.h>
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

@@ -3,6 +3,7 @@
 #include <palpate/run.h>
 #include <palpate/snapshot_tissue.h>
 #include <palpate/tissue.h>
+#include <palpate/scene.h>
 
 #include "png_read.h"
 

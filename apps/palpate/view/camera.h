@@ -3,7 +3,7 @@
 #pragma once
 
 #include <palpate/core.h>
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 
 #include <cstdint>
 #include <optional>

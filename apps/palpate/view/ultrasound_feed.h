@@ -3,7 +3,7 @@
 // GUI thread as the newest complete image. No OpenGL here: the viewer uploads it to a texture.
 #pragma once
 
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 #include <palpate/ultrasound.h>
 
 #include <atomic>

@@ -1,4 +1,5 @@
 // mesh_ref.cpp — a charged-particle patch laid on the surface mesh a scene file names.
+#include <palpate/mesh_load.h>
 #include "tissue/charged/mesh_ref.h"
 
 namespace palpate::charged {

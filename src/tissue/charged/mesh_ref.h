@@ -2,6 +2,7 @@
 #pragma once
 
 #include <palpate/charged.h>
+#include <palpate/mesh_load.h>
 
 #include <string>
 

@@ -1,9 +1,9 @@
 // model.cpp — building a charged-particle patch: generated hexagonal lattices (flat, cylinder,
 // sphere), patches laid on a surface mesh, the rest state, and the per-particle memory figure.
 #include <palpate/charged.h>
+#include <palpate/meshing.h>
 
 #include "core/memory.h"
-#include "tissue/charged/remesh.h"
 
 #include <algorithm>
 #include <cmath>
@@ -243,7 +243,7 @@ Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface, const Cha
                  std::to_string(kMaxParticles) + " particles)" : "this machine's " + memory_text(memory) + " of memory") +
                  "; expected a coarser mesh_spacing"};
 
-  Result<SurfaceMesh> remeshed = charged::remesh_isotropic(surface, s, where);
+  Result<SurfaceMesh> remeshed = remesh_isotropic(surface, s, where);
   if (!remeshed) return remeshed.error();
   const SurfaceMesh& r = *remeshed;
   const size_t n = static_cast<size_t>(r.V.rows());

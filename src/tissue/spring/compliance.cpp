@@ -1,7 +1,7 @@
 // compliance.cpp — the exact compliance of a mass-spring organ's vertices, W = h² A⁻¹ restricted
 // to them (from the predictor's factor, one forward substitution along an elimination-tree path
 // per vertex, cached), and the contact patch a multi-rate loop solves against (issue 24).
-#include <palpate/haptics.h>
+#include <palpate/contact.h>
 #include <palpate/spring.h>
 
 #include <Eigen/Core>

@@ -3,7 +3,7 @@
 #pragma once
 
 #include <palpate/mesh.h>
-#include <palpate/scene.h>
+#include <palpate/scene_def.h>
 
 #include <array>
 #include <vector>

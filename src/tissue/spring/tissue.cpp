@@ -1,7 +1,9 @@
 // tissue.cpp — the mass-spring-damper model wired as a scene tissue: set-up from a TissueDef,
 // the Tissue interface (step, figures, events, snapshot, reset) over step() of spring.h.
-#include <palpate/haptics.h>
+#include <palpate/contact.h>
 #include <palpate/spring.h>
+#include <palpate/mesh_load.h>
+#include <palpate/meshing.h>
 
 #include "tissue/factory.h"
 #include "tissue/spring/shapes.h"

@@ -1,5 +1,5 @@
 // plots.cpp — gnuplot-drawn PNG plots of force against time and depth, with events marked.
-#include "io/plots.h"
+#include "simulation/plots.h"
 
 #include <fmt/format.h>
 

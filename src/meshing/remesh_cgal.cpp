@@ -1,6 +1,6 @@
-// lay_on_mesh_cgal.cpp — CGAL isotropic remeshing of a surface to the particle spacing (the only
+// remesh_cgal.cpp — CGAL isotropic remeshing of a surface (palpate/meshing.h; the only
 // file that includes CGAL).
-#include "tissue/charged/remesh.h"
+#include <palpate/meshing.h>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/border.h>
@@ -15,7 +15,7 @@
 #include <unordered_map>
 #include <vector>
 
-namespace palpate::charged {
+namespace palpate {
 
 namespace {
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
@@ -77,4 +77,4 @@ Result<SurfaceMesh> remesh_isotropic(const SurfaceMesh& surface, double target_e
   return out;
 }
 
-}  // namespace palpate::charged
+}  // namespace palpate

@@ -3,7 +3,7 @@
 #define STB_IMAGE_WRITE_STATIC
 #include <stb/stb_image_write.h>
 
-#include <palpate/render.h>
+#include <palpate/image.h>
 
 #include <string>
 #include <vector>
@@ -27,12 +27,6 @@ Status write_png(const Image& image, const std::filesystem::path& file) {
   if (!stbi_write_png_to_func(append_bytes, &png, image.width, image.height, 4, image.rgba.data(), image.width * 4))
     return Error{file.string() + ": PNG encoding failed"};
   return write_file_atomic(file, png, /*create_directories=*/false);
-}
-
-Status render_png(const RenderScene& scene, const std::filesystem::path& file) {
-  auto image = render_rgba(scene);
-  if (!image) return Error{file.string() + ": " + image.error().message};
-  return write_png(*image, file);
 }
 
 }  // namespace palpate

@@ -9,7 +9,7 @@
 #include <palpate/tissue.h>
 #include <palpate/ultrasound.h>
 
-#include "io/plots.h"
+#include "simulation/plots.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
