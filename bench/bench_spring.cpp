@@ -4,6 +4,7 @@
 #include <palpate/spring.h>
 #include <palpate/mesh_load.h>
 #include <palpate/meshing.h>
+#include <palpate/tissue_files.h>
 
 #include "tissue/spring/forces.h"
 #include "tissue/spring/shapes.h"

@@ -7,9 +7,10 @@
 // seed corpus) .
 #include <palpate/spring.h>
 #include <palpate/mesh_load.h>
+#include <palpate/tissue_files.h>
 
 #include "fuzz_common.h"
-#include "io/predictor_file.h"
+#include "simulation/predictor_file.h"
 
 #include <cstring>
 #include <vector>

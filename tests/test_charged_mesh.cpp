@@ -1,6 +1,7 @@
 // test_charged_mesh.cpp — charged-particle patches laid on surface meshes (CGAL isotropic remeshing).
 #include <palpate/charged.h>
 #include <palpate/mesh_load.h>
+#include <palpate/tissue_files.h>
 
 #include <gtest/gtest.h>
 

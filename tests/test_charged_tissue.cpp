@@ -2,6 +2,7 @@
 // or mesh), figures, events, snapshot, reset, errors.
 #include <palpate/scene.h>
 #include <palpate/tissue.h>
+#include <palpate/tissue_files.h>
 
 #include <gtest/gtest.h>
 

@@ -9,6 +9,7 @@
 #include <palpate/scene.h>
 #include <palpate/spring.h>
 #include <palpate/mesh_load.h>
+#include <palpate/tissue_files.h>
 
 #include <gtest/gtest.h>
 

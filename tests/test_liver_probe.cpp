@@ -7,6 +7,7 @@
 #include <palpate/scene.h>
 #include <palpate/tissue.h>
 #include <palpate/mesh_load.h>
+#include <palpate/tissue_files.h>
 
 #include <gtest/gtest.h>
 

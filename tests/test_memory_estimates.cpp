@@ -4,6 +4,7 @@
 // and a dense (desbrun) predictor's n² doubles. PALPATE_MEMORY_LIMIT stands for a smaller machine.
 #include <palpate/scene.h>
 #include <palpate/tissue.h>
+#include <palpate/tissue_files.h>
 
 #include <gtest/gtest.h>
 

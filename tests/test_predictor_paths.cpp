@@ -1,9 +1,10 @@
 // test_predictor_paths.cpp — a predictor path that is not a regular file (a directory, a FIFO) is
 // refused when the organ is built, naming the path and what it is, under either policy; the FIFO is
 // left as it was (not computed around and renamed over), and nothing blocks opening it.
+#include <palpate/tissue_files.h>
 #include "spring_fixtures.h"
 
-#include "io/predictor_file.h"
+#include "simulation/predictor_file.h"
 
 #include <gtest/gtest.h>
 

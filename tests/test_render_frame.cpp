@@ -3,6 +3,7 @@
 #include <palpate/render.h>
 #include <palpate/scene.h>
 #include <palpate/tissue.h>
+#include <palpate/tissue_files.h>
 
 #include <gtest/gtest.h>
 

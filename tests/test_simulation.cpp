@@ -4,6 +4,7 @@
 #include <palpate/run.h>
 #include <palpate/scene.h>
 #include <palpate/simulation.h>
+#include <palpate/tissue_files.h>
 
 // The viewer's choice of options lives in the app (GUI-free, public headers only): compiled in here.
 #include "../apps/palpate/view/view_setup.cpp"

@@ -1,8 +1,9 @@
 // test_spring_file.cpp — the predictor file: round trip, and each kind of bad file refused with
 // the message that says why; the load-or-compute / require-file policy.
+#include <palpate/tissue_files.h>
 #include "spring_fixtures.h"
 
-#include "io/predictor_file.h"
+#include "simulation/predictor_file.h"
 #include "tissue/spring/solve.h"
 
 #include <cmath>

@@ -1,6 +1,7 @@
 // test_spring_network.cpp — networks from meshes: spring counts per topology, lumped masses,
 // stiffness from Young's modulus, the tissue wired into a scene, and errors on bad input.
 #include <palpate/meshing.h>
+#include <palpate/tissue_files.h>
 #include "spring_fixtures.h"
 
 #include "tissue/factory.h"

@@ -7,6 +7,7 @@
 #include <palpate/spring.h>
 #include <palpate/tissue.h>
 #include <palpate/mesh_load.h>
+#include <palpate/tissue_files.h>
 
 #include "sanitized.h"
 

@@ -3,6 +3,7 @@
 // three anchors, whose reaction equals the liver's weight.
 #include <palpate/scene.h>
 #include <palpate/tissue.h>
+#include <palpate/tissue_files.h>
 
 #include <gtest/gtest.h>
 

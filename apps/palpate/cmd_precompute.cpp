@@ -2,6 +2,7 @@
 // mass-spring predictor (the expensive phase) and write it to a file, with a progress bar on a terminal.
 #include <palpate/palpate.h>
 #include <palpate/spring.h>
+#include <palpate/tissue_files.h>
 
 #include "commands.h"
 

@@ -142,12 +142,12 @@ struct ChargedLayer {
 Result<ChargedModel> build_charged_patch(const PatchDef& patch, const ChargedMaterialDef& material,
                                          const std::string& where = "patch");
 
-// A patch laid on a triangulated surface: isotropic remeshing (CGAL) to material.mesh_spacing,
+// A patch laid on a triangulated surface: isotropic remeshing (services.remesh: CGAL) to material.mesh_spacing,
 // particles at the vertices, neighbours along the edges (the six shortest where a vertex has more),
 // origins on the surface, outward normals. The surface must be manifold and counter-clockwise.
 Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface,
                                            const ChargedMaterialDef& material,
-                                           const std::string& where = "mesh");
+                                           const std::string& where, const TissueServices& services);
 
 // The state at rest for `model` (allocates every scratch array the step will ever need).
 ChargedState make_charged_state(const ChargedModel& model);

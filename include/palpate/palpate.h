@@ -3,6 +3,7 @@
 
 #include <palpate/anatomy.h>
 #include <palpate/charged.h>
+#include <palpate/checked_file.h>
 #include <palpate/contact.h>
 #include <palpate/core.h>
 #include <palpate/device.h>
@@ -21,4 +22,5 @@
 #include <palpate/snapshot_tissue.h>
 #include <palpate/spring.h>
 #include <palpate/surface.h>
+#include <palpate/tissue_files.h>
 #include <palpate/tissue.h>

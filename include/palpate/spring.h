@@ -16,6 +16,7 @@
 #include <span>
 #include <utility>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace palpate {
@@ -405,22 +406,26 @@ class SpringCompliance {
 // False (the model unchanged) when it has no predictor or no surface.
 bool use_exact_contact_compliance(SpringModel& model);
 
-// Predictor files (a versioned binary format, docs/models/mass-spring.md).
-// FNV-1a 64 of the network's rest positions and topology: the "mesh" a predictor was made for.
+// Predictors as bytes (the file around them is palpate/tissue_files.h's; docs/models/mass-spring.md).
+// FNV-1a 64 of the network's rest positions: the "mesh" a predictor was made for.
 std::uint64_t mesh_hash(const SpringNetwork& network);
-// Write the model's predictor with every parameter it depends on; atomically (temp + rename).
-Status save_predictor(const std::filesystem::path& file, const SpringModel& model);
-// Read a predictor made for exactly this network and these options; a truncated, corrupted,
-// other-mesh or other-parameter file is refused with a message saying which.
-Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const SpringNetwork& network,
-                                       const SpringModelOptions& options);
+// The model's predictor with every parameter it depends on, as a predictor file's payload. An
+// exact-solver model has none (an error naming `where`).
+Result<std::string> encode_predictor(const SpringModel& model, const std::string& where);
+// A payload's predictor, when it was made for exactly this network and these options; a short,
+// corrupted, other-mesh or other-parameter payload is refused with a message, headed by `where`
+// (the file and ": "), saying which.
+Result<SpringPredictor> decode_predictor(std::string_view payload, const SpringNetwork& network,
+                                         const SpringModelOptions& options, const std::string& where);
 
-// A model from a network with the predictor policy: load `file` when it matches, else compute it
-// (and write it when `file` is not empty), or fail under require_file. `note` (optional) is told
-// what happened ("loaded", or why it was recomputed).
+// A model from a network with the predictor policy: load `file` (through services.read_predictor)
+// when it matches, else compute it (and store it with services.write_predictor when `file` is not
+// empty), or fail under require_file. A `file` that exists but is not a regular file is refused.
+// `note` (optional) is told what happened ("loaded", or why it was recomputed).
 Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelOptions& options,
                                        const std::filesystem::path& file, PredictorPolicy policy,
-                                       std::string* note = nullptr, const Progress& progress = {});
+                                       const TissueServices& services, std::string* note = nullptr,
+                                       const Progress& progress = {});
 
 // What a scene's mass_spring tissue asks for: its network (from TissueDef::mesh — a tet file, or a
 // surface, filled with tetrahedra by tetrahedralize() when the topology is tet_edges — or from
@@ -432,14 +437,16 @@ struct SpringTissueSetup {
   std::filesystem::path predictor;
   PredictorPolicy policy = PredictorPolicy::load_or_compute;
 };
-Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index);
+Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index, const TissueServices& services);
 
 // A scene tissue over a built model (tests, benchmarks, embedding programs): step(tool, dt) runs
 // dt / model.options.dt steps; it offers the loop its compliant contact patch
 // (ContactComplianceSource, palpate/haptics.h) when dt is one step.
 std::unique_ptr<Tissue> make_spring_tissue(std::string name, SpringModel model);
 
-// A network from a mesh file (tetrahedral formats by extension, else a surface).
-Result<SpringNetwork> spring_network_from_file(const MeshRef& mesh, const SpringNetworkOptions& options);
+// A network from a mesh file (tetrahedral formats by extension, else a surface; filled with
+// tetrahedra for tet_edges), read and filled through `services`.
+Result<SpringNetwork> spring_network_from_file(const MeshRef& mesh, const SpringNetworkOptions& options,
+                                               const TissueServices& services);
 
 }  // namespace palpate

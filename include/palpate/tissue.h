@@ -2,13 +2,16 @@
 #pragma once
 
 #include <palpate/core.h>
+#include <palpate/mesh.h>
 #include <palpate/scene_def.h>
 
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace palpate {
@@ -84,8 +87,30 @@ class Tissue {
 // after building the tissues and again after replacing one.
 void link_layers(std::span<Tissue* const> tissues);
 
-// Build the tissue a scene describes (loads meshes, precomputes what the model needs).
-// `index` is the tissue's place in the scene, used in events and messages.
-Result<std::unique_ptr<Tissue>> make_tissue(const SceneDef& scene, int index);
+// What a tissue model needs from the layers above it, handed in by whoever builds it (the
+// Simulation's builder: file_tissue_services() in palpate/tissue_files.h). A model never opens a
+// file nor runs a mesher itself (DESIGN.md §3): a program that builds models from meshes it made
+// links neither the mesh loaders nor Gmsh or CGAL, and hands in only what its scene needs. A
+// service left null is an error naming what was asked for, when a scene needs it.
+struct TissueServices {
+  // A surface mesh file, scaled and validated against `need` (palpate/mesh_load.h's load_surface).
+  Result<SurfaceMesh> (*load_surface)(const std::filesystem::path& file, double scale,
+                                      const SurfaceRequirements& need) = nullptr;
+  // A tetrahedral mesh file, scaled and validated (load_tet).
+  Result<TetMesh> (*load_tet)(const std::filesystem::path& file, double scale) = nullptr;
+  // A closed surface filled with tetrahedra (palpate/meshing.h's tetrahedralize).
+  Result<TetMesh> (*fill)(const SurfaceMesh& surface, const FillOptions& options) = nullptr;
+  // A surface remeshed isotropically to `target_edge` (remesh_isotropic).
+  Result<SurfaceMesh> (*remesh)(const SurfaceMesh& surface, double target_edge, const std::string& where) = nullptr;
+  // A spring model's predictor: the payload stored at `file` (an error says why there is none
+  // usable: missing, damaged, another format), and storing one (atomically).
+  Result<std::string> (*read_predictor)(const std::filesystem::path& file) = nullptr;
+  Status (*write_predictor)(const std::filesystem::path& file, std::string_view payload) = nullptr;
+};
+
+// Build the tissue a scene describes (its meshes and predictor through `services`; precomputes
+// what the model needs). `index` is the tissue's place in the scene, used in events and messages.
+// palpate/tissue_files.h has the overload without services, with the files' own.
+Result<std::unique_ptr<Tissue>> make_tissue(const SceneDef& scene, int index, const TissueServices& services);
 
 }  // namespace palpate

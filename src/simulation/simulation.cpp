@@ -5,6 +5,7 @@
 #include <palpate/anatomy.h>
 #include <palpate/outcome.h>
 #include <palpate/ultrasound.h>
+#include <palpate/tissue_files.h>
 
 #include <cmath>
 
@@ -116,7 +117,7 @@ Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene_in, 
   if (!scene) return scene.error();
   std::vector<std::unique_ptr<Tissue>> tissues;
   for (int i = 0; i < static_cast<int>(scene->tissues.size()); ++i) {
-    auto t = make_tissue(*scene, i);
+    auto t = make_tissue(*scene, i, file_tissue_services());
     if (!t) return t.error();
     tissues.push_back(std::move(*t));
   }

@@ -3,10 +3,10 @@
 
 namespace palpate {
 
-Result<std::unique_ptr<Tissue>> make_tissue(const SceneDef& scene, int index) {
+Result<std::unique_ptr<Tissue>> make_tissue(const SceneDef& scene, int index, const TissueServices& services) {
   const TissueDef& t = scene.tissues.at(static_cast<size_t>(index));
-  if (t.model == "charged_particles") return make_charged_tissue(scene, index);
-  if (t.model == "mass_spring") return make_spring_tissue(scene, index);
+  if (t.model == "charged_particles") return make_charged_tissue(scene, index, services);
+  if (t.model == "mass_spring") return make_spring_tissue(scene, index, services);
   return Error{scene.file.string() + ":" + std::to_string(t.line) + ": tissue '" + t.name +
                "': unknown model '" + t.model + "' (expected charged_particles or mass_spring)"};
 }

@@ -9,6 +9,7 @@
 #include <palpate/scene.h>
 #include <palpate/tissue.h>
 #include <palpate/ultrasound.h>
+#include <palpate/tissue_files.h>
 
 #include "sanitized.h"
 

@@ -5,6 +5,7 @@
 #include <palpate/scene.h>
 #include <palpate/spring.h>
 #include <palpate/tissue.h>
+#include <palpate/tissue_files.h>
 
 #include "haptics/patch_contact.h"
 #include "haptics/render_error.h"

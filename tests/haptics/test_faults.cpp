@@ -7,6 +7,7 @@
 #include <palpate/haptics.h>
 #include <palpate/scene.h>
 #include <palpate/tissue.h>
+#include <palpate/tissue_files.h>
 
 #include "haptics/doubles.h"
 #include "run_csv_rows.h"

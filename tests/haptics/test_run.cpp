@@ -4,6 +4,7 @@
 #include <palpate/run.h>
 #include <palpate/scene.h>
 #include <palpate/tissue.h>
+#include <palpate/tissue_files.h>
 
 #include "haptics/doubles.h"
 

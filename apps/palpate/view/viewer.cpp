@@ -19,6 +19,7 @@
 #include <palpate/surface.h>
 #include <palpate/tissue.h>
 #include <palpate/ultrasound.h>
+#include <palpate/tissue_files.h>
 
 #include <epoxy/gl.h>
 // GLFW after epoxy: epoxy provides the GL declarations, GLFW must not include its own.

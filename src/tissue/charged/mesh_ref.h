@@ -2,15 +2,14 @@
 #pragma once
 
 #include <palpate/charged.h>
-#include <palpate/mesh_load.h>
 
 #include <string>
 
 namespace palpate::charged {
 
-// load_surface(ref.file, ref.scale), translated by ref.translate, then build_charged_on_mesh.
+// services.load_surface(ref.file, ref.scale), translated by ref.translate, then build_charged_on_mesh.
 // Errors from the loader already name the file; `where` names the scene's tissue.
 Result<ChargedModel> build_on_mesh_ref(const MeshRef& ref, const ChargedMaterialDef& material,
-                                       const std::string& where);
+                                       const std::string& where, const TissueServices& services);
 
 }  // namespace palpate::charged

@@ -1,7 +1,6 @@
 // model.cpp — building a charged-particle patch: generated hexagonal lattices (flat, cylinder,
 // sphere), patches laid on a surface mesh, the rest state, and the per-particle memory figure.
 #include <palpate/charged.h>
-#include <palpate/meshing.h>
 
 #include "core/memory.h"
 
@@ -202,7 +201,7 @@ Result<ChargedModel> build_charged_patch(const PatchDef& p, const ChargedMateria
 }
 
 Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface, const ChargedMaterialDef& material,
-                                           const std::string& where) {
+                                           const std::string& where, const TissueServices& services) {
   const Eigen::Index nv = surface.V.rows();
   if (nv < 3 || surface.F.rows() < 1)
     return Error{where + ": surface has " + std::to_string(nv) + " vertices and " +
@@ -243,7 +242,8 @@ Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface, const Cha
                  std::to_string(kMaxParticles) + " particles)" : "this machine's " + memory_text(memory) + " of memory") +
                  "; expected a coarser mesh_spacing"};
 
-  Result<SurfaceMesh> remeshed = remesh_isotropic(surface, s, where);
+  if (!services.remesh) return Error{where + ": no remesher was handed to the tissue's builder (laying particles on a mesh needs one)"};
+  Result<SurfaceMesh> remeshed = services.remesh(surface, s, where);
   if (!remeshed) return remeshed.error();
   const SurfaceMesh& r = *remeshed;
   const size_t n = static_cast<size_t>(r.V.rows());

@@ -107,7 +107,7 @@ class ChargedTissue final : public Tissue {
 
 }  // namespace
 
-Result<std::unique_ptr<Tissue>> make_charged_tissue(const SceneDef& scene, int index) {
+Result<std::unique_ptr<Tissue>> make_charged_tissue(const SceneDef& scene, int index, const TissueServices& services) {
   if (index < 0 || static_cast<size_t>(index) >= scene.tissues.size())
     return Error{scene.file.string() + ": no tissue " + std::to_string(index) + " (the scene has " +
                  std::to_string(scene.tissues.size()) + ")"};
@@ -116,7 +116,7 @@ Result<std::unique_ptr<Tissue>> make_charged_tissue(const SceneDef& scene, int i
   if (t.patch.has_value() == t.mesh.has_value())
     return Error{where + ": expected exactly one of 'patch' and 'mesh'"};
   Result<ChargedModel> model = t.patch ? build_charged_patch(*t.patch, t.charged, where)
-                                       : charged::build_on_mesh_ref(*t.mesh, t.charged, where);
+                                       : charged::build_on_mesh_ref(*t.mesh, t.charged, where, services);
   if (!model) return model.error();
   // An anchor must name a particle of this patch (an index past it was accepted and ignored).
   const size_t n = model->size();

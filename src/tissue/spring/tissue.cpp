@@ -2,8 +2,6 @@
 // the Tissue interface (step, figures, events, snapshot, reset) over step() of spring.h.
 #include <palpate/contact.h>
 #include <palpate/spring.h>
-#include <palpate/mesh_load.h>
-#include <palpate/meshing.h>
 
 #include "tissue/factory.h"
 #include "tissue/spring/shapes.h"
@@ -133,28 +131,32 @@ std::unique_ptr<Tissue> make_spring_tissue(std::string name, SpringModel model) 
   return std::make_unique<SpringTissue>(std::move(name), 0, std::move(model));
 }
 
-Result<SpringNetwork> spring_network_from_file(const MeshRef& ref, const SpringNetworkOptions& o) {
+Result<SpringNetwork> spring_network_from_file(const MeshRef& ref, const SpringNetworkOptions& o,
+                                               const TissueServices& services) {
   const std::string where = ref.file.string();
   if (is_tet_file(ref.file)) {
-    auto tet = load_tet(ref.file, ref.scale);
+    if (!services.load_tet) return Error{where + ": no tetrahedral mesh loader was handed to the tissue's builder"};
+    auto tet = services.load_tet(ref.file, ref.scale);
     if (!tet) return tet.error();
     translate(tet->V, ref.translate);
     return make_spring_network(*tet, o, where);
   }
   SurfaceRequirements need;
   need.closed = need.manifold = (o.topology == SpringTopology::tet_edges || o.density > 0 || o.youngs_modulus > 0);
-  auto surface = load_surface(ref.file, ref.scale, need);
+  if (!services.load_surface) return Error{where + ": no surface loader was handed to the tissue's builder"};
+  auto surface = services.load_surface(ref.file, ref.scale, need);
   if (!surface) return surface.error();
   translate(surface->V, ref.translate);
   if (o.topology == SpringTopology::tet_edges) {
-    auto tet = tetrahedralize(*surface, o.fill);
+    if (!services.fill) return Error{where + ": no tetrahedral mesher was handed to the tissue's builder (topology tet_edges fills the surface)"};
+    auto tet = services.fill(*surface, o.fill);
     if (!tet) return Error{where + ": filling the surface with tetrahedra failed: " + tet.error().message};
     return make_spring_network(*tet, o, where + " (tetrahedralized)");
   }
   return make_spring_network(*surface, o, where);
 }
 
-Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
+Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index, const TissueServices& services) {
   const TissueDef& t = scene.tissues.at(static_cast<size_t>(index));
   const std::string where = where_of(scene, t);
   const SpringMaterialDef& m = t.spring;
@@ -168,7 +170,7 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
   else return Error{where + ": predictor_policy '" + m.predictor_policy + "' is not one of load_or_compute|require_file"};
   Result<SpringNetwork> net = Error{where + ": needs a patch or a mesh"};
   if (t.mesh) {
-    net = spring_network_from_file(*t.mesh, *net_opt);
+    net = spring_network_from_file(*t.mesh, *net_opt, services);
     if (!net) return Error{where + ": " + net.error().message};
   } else if (t.patch && t.patch->shape == "sphere") {
     // A solid ball (a large organ made at load: issue 24's scene): the tets of a grid of `spacing`
@@ -227,11 +229,11 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index) {
   return setup;
 }
 
-Result<std::unique_ptr<Tissue>> make_spring_tissue(const SceneDef& scene, int index) {
-  auto setup = spring_setup(scene, index);
+Result<std::unique_ptr<Tissue>> make_spring_tissue(const SceneDef& scene, int index, const TissueServices& services) {
+  auto setup = spring_setup(scene, index, services);
   if (!setup) return setup.error();
   const TissueDef& t = scene.tissues.at(static_cast<size_t>(index));
-  auto model = build_spring_model(std::move(setup->network), setup->options, setup->predictor, setup->policy);
+  auto model = build_spring_model(std::move(setup->network), setup->options, setup->predictor, setup->policy, services);
   if (!model) return Error{where_of(scene, t) + ": " + model.error().message};
   // On the multi-rate path the step's contact uses the exact diagonal of A⁻¹, so that it agrees with
   // the exact compliance the haptic thread renders between its steps (issue 24).

@@ -1,50 +1,25 @@
-// predictor_file.cpp — the mass-spring predictor file: a versioned binary format with the mesh's
-// hash, every parameter the predictor depends on, and a checksum; written atomically.
+// predictor_codec.cpp — the mass-spring predictor as bytes, and the load-or-compute policy
+// (palpate/spring.h). The file around the bytes is io's (palpate/checked_file.h); this model
+// never opens it: the builder's TissueServices read and write it.
 //
-// Layout (little-endian): header = magic "PALPPRED", u32 version, u32 reserved, u64 payload size,
-// u64 checksum of the payload. Payload = u64 mesh hash, u64 n, u64 s, u32 solver, u32 anchors,
-// f64 dt, f64 point_damping, f64 mass[n], i32 springs[2s], f64 stiffness[s], f64 damping[s],
+// Payload (little-endian) = u64 mesh hash, u64 n, u64 s, u32 solver, u32 anchors, f64 dt,
+// f64 point_damping, f64 mass[n], i32 springs[2s], f64 stiffness[s], f64 damping[s],
 // i32 anchors[a], then desbrun: f64 inverse[n·n]; sparse: u64 nnz, i32 perm[n], i32 col_start[n+1],
 // i32 row[nnz], f64 value[nnz], f64 inv_diag[n].
-#include "io/predictor_file.h"
-
 #include <palpate/spring.h>
 
 #include "tissue/spring/solve.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <string>
 #include <system_error>
-#include <unistd.h>
 
 namespace palpate {
 
-namespace predictor_file {
-
-std::uint64_t checksum(const unsigned char* data, std::size_t size) noexcept {
-  static_assert(std::endian::native == std::endian::little, "predictor files are little-endian");
-  constexpr std::uint64_t kPrime = 0x100000001b3ULL;
-  std::uint64_t h = 0xcbf29ce484222325ULL;
-  std::size_t i = 0;
-  for (; i + 8 <= size; i += 8) {
-    std::uint64_t w;
-    std::memcpy(&w, data + i, 8);
-    h = (h ^ w) * kPrime;
-  }
-  for (; i < size; ++i) h = (h ^ data[i]) * kPrime;
-  return h;
-}
-
-}  // namespace predictor_file
-
 namespace {
-
-using predictor_file::kHeaderSize;
 
 struct Writer {
   std::string buf;
@@ -107,18 +82,17 @@ std::uint64_t mesh_hash(const SpringNetwork& net) {
   w.put(static_cast<std::uint64_t>(net.rest.rows()));
   for (Eigen::Index i = 0; i < net.rest.rows(); ++i)
     for (int c = 0; c < 3; ++c) w.put(net.rest(i, c));
-  return predictor_file::checksum(reinterpret_cast<const unsigned char*>(w.buf.data()), w.buf.size());
+  return fnv1a64(w.buf.data(), w.buf.size());
 }
 
-Status save_predictor(const std::filesystem::path& file, const SpringModel& model) {
+Result<std::string> encode_predictor(const SpringModel& model, const std::string& where) {
   const SpringNetwork& net = model.network;
   const SpringPredictor& p = model.predictor;
   if (p.kind == SpringSolver::exact || p.empty())
-    return Error{file.string() + ": the exact solver has no predictor to save (use desbrun or sparse)"};
+    return Error{where + ": the exact solver has no predictor to save (use desbrun or sparse)"};
   Writer w;
-  w.buf.reserve(kHeaderSize + 64 + net.size() * 8 + net.springs.size() * 24 + p.inverse.size() * 8 +
+  w.buf.reserve(64 + net.size() * 8 + net.springs.size() * 24 + p.inverse.size() * 8 +
                 p.value.size() * 12 + net.size() * 16);
-  w.buf.append(kHeaderSize, '\0');
   w.put(mesh_hash(net));
   w.put(static_cast<std::uint64_t>(net.size()));
   w.put(static_cast<std::uint64_t>(net.springs.size()));
@@ -143,51 +117,12 @@ Status save_predictor(const std::filesystem::path& file, const SpringModel& mode
     w.put_array(p.value.data(), p.value.size());
     w.put_array(p.inv_diag.data(), p.inv_diag.size());
   }
-  const std::uint64_t payload = w.buf.size() - kHeaderSize;
-  const std::uint64_t sum =
-      predictor_file::checksum(reinterpret_cast<const unsigned char*>(w.buf.data()) + kHeaderSize, payload);
-  std::memcpy(w.buf.data(), predictor_file::kMagic, 8);
-  std::memcpy(w.buf.data() + 8, &predictor_file::kVersion, 4);
-  std::memcpy(w.buf.data() + 16, &payload, 8);
-  std::memcpy(w.buf.data() + 24, &sum, 8);
-  // Atomically, and on disk before it is renamed into place (fsync): a killed precompute or a lost
-  // power leaves the old file or none, never a half-written one under the predictor's name.
-  return write_file_atomic(file, w.buf, true);
+  return std::move(w.buf);
 }
 
-Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const SpringNetwork& net,
-                                       const SpringModelOptions& options) {
-  const std::string where = file.string() + ": ";
-  if (Status s = check_regular_file(file, "a palpate predictor file (material.predictor)"); !s) return s.error();
-  std::ifstream in(file, std::ios::binary | std::ios::ate);
-  if (!in) return Error{where + "cannot open the predictor file"};
-  const std::streamoff size = in.tellg();
-  if (size < 0) return Error{where + "cannot read the predictor file"};
-  std::vector<unsigned char> data(static_cast<size_t>(size));
-  in.seekg(0);
-  in.read(reinterpret_cast<char*>(data.data()), size);
-  if (!in) return Error{where + "cannot read the predictor file"};
-  if (data.size() < 8 || std::memcmp(data.data(), predictor_file::kMagic, 8) != 0)
-    return Error{where + "not a palpate predictor file (bad magic)"};
-  if (data.size() < kHeaderSize)
-    return Error{where + "truncated: " + std::to_string(data.size()) + " bytes, shorter than the header"};
-  std::uint32_t version;
-  std::uint64_t payload, sum;
-  std::memcpy(&version, data.data() + 8, 4);
-  std::memcpy(&payload, data.data() + 16, 8);
-  std::memcpy(&sum, data.data() + 24, 8);
-  if (version != predictor_file::kVersion)
-    return Error{where + "predictor file version " + std::to_string(version) + ", this palpate reads version " +
-                 std::to_string(predictor_file::kVersion)};
-  if (data.size() - kHeaderSize < payload)
-    return Error{where + "truncated: " + std::to_string(data.size()) + " bytes, expected " +
-                 std::to_string(payload + kHeaderSize)};
-  if (data.size() - kHeaderSize > payload)
-    return Error{where + "corrupted: " + std::to_string(data.size() - kHeaderSize - payload) +
-                 " bytes after the payload"};
-  if (predictor_file::checksum(data.data() + kHeaderSize, payload) != sum)
-    return Error{where + "corrupted: checksum mismatch"};
-  Reader r{data.data() + kHeaderSize, payload};
+Result<SpringPredictor> decode_predictor(std::string_view payload, const SpringNetwork& net,
+                                         const SpringModelOptions& options, const std::string& where) {
+  Reader r{reinterpret_cast<const unsigned char*>(payload.data()), payload.size()};
   std::uint64_t hash, n, s;
   std::uint32_t solver, anchors;
   double dt, gamma;
@@ -295,8 +230,8 @@ Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const 
 }
 
 Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelOptions& options,
-                                       const std::filesystem::path& file, PredictorPolicy policy, std::string* note,
-                                       const Progress& progress) {
+                                       const std::filesystem::path& file, PredictorPolicy policy,
+                                       const TissueServices& services, std::string* note, const Progress& progress) {
   if (options.solver == SpringSolver::exact || file.empty()) {
     if (policy == PredictorPolicy::require_file && options.solver != SpringSolver::exact)
       return Error{"a predictor file is required (predictor_policy: require_file) but none is named"};
@@ -310,7 +245,10 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
   if (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec))
     return check_regular_file(file, "a palpate predictor file (material.predictor)").error();
   if (std::filesystem::exists(file, ec)) {
-    auto loaded = load_predictor(file, network, options);
+    if (!services.read_predictor) return Error{file.string() + ": no predictor reader was handed to the model's builder"};
+    Result<std::string> bytes = services.read_predictor(file);
+    Result<SpringPredictor> loaded =
+        bytes ? decode_predictor(*bytes, network, options, file.string() + ": ") : Result<SpringPredictor>(bytes.error());
     if (loaded) {
       if (note) *note = "loaded " + file.string();
       return build_spring_model(std::move(network), options, std::move(*loaded));
@@ -322,7 +260,11 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
   if (policy == PredictorPolicy::require_file) return Error{why + " (predictor_policy: require_file)"};
   auto model = build_spring_model(std::move(network), options, progress);
   if (!model) return model.error();
-  if (Status st = save_predictor(file, *model); !st) {
+  Result<std::string> payload = encode_predictor(*model, file.string());
+  Status st = !payload ? Status(payload.error())
+              : services.write_predictor ? services.write_predictor(file, *payload)
+                                         : Status(Error{file.string() + ": no predictor writer was handed to the model's builder"});
+  if (!st) {
     if (note) *note = "computed (" + why + "); not saved: " + st.error().message;
   } else if (note) {
     *note = "computed (" + why + "); saved " + file.string();
