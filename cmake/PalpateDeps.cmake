@@ -25,14 +25,16 @@ add_library(palpate_metis INTERFACE)
 target_include_directories(palpate_metis SYSTEM INTERFACE ${METIS_INCLUDE_DIR})
 target_link_libraries(palpate_metis INTERFACE ${METIS_LIBRARY})
 
-# Off-screen rendering (src/render): Mesa's OSMesa (software OpenGL) and stb_image_write (PNG),
-# neither with a CMake package on Debian.
+# Off-screen rendering (src/render): Mesa's OSMesa (software OpenGL); PNG files (src/io):
+# stb_image_write. Neither has a CMake package on Debian.
 find_path(OSMESA_INCLUDE_DIR GL/osmesa.h REQUIRED)
 find_library(OSMESA_LIBRARY NAMES OSMesa REQUIRED)
-find_path(STB_INCLUDE_DIR stb/stb_image_write.h REQUIRED)
 add_library(palpate_osmesa INTERFACE)
-target_include_directories(palpate_osmesa SYSTEM INTERFACE ${OSMESA_INCLUDE_DIR} ${STB_INCLUDE_DIR})
+target_include_directories(palpate_osmesa SYSTEM INTERFACE ${OSMESA_INCLUDE_DIR})
 target_link_libraries(palpate_osmesa INTERFACE ${OSMESA_LIBRARY})
+find_path(STB_INCLUDE_DIR stb/stb_image_write.h REQUIRED)
+add_library(palpate_stb INTERFACE)
+target_include_directories(palpate_stb SYSTEM INTERFACE ${STB_INCLUDE_DIR})
 
 if(PALPATE_BUILD_TESTS)
   find_package(GTest REQUIRED)

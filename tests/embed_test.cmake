@@ -1,5 +1,8 @@
-# Installs the built palpate into a scratch prefix, then configures, builds and runs
-# examples/embed against it with find_package(palpate) — as a user's project would.
+# Installs the built palpate into a scratch prefix, then configures, builds and runs an example
+# (EMBED_SOURCE_DIR: examples/embed, examples/tissue_only) against it with find_package(palpate),
+# as a user's project would: its program EMBED_PROGRAM run with EMBED_ARGS must print something
+# matching EMBED_EXPECT, and, when EMBED_FORBID is set, none of the shared libraries it loads
+# (ldd: the whole closure) may match it.
 file(REMOVE_RECURSE ${WORK_DIR})
 execute_process(COMMAND ${CMAKE_COMMAND} --install ${PALPATE_BINARY_DIR} --prefix ${WORK_DIR}/prefix
                 RESULT_VARIABLE rc OUTPUT_QUIET)
@@ -23,15 +26,30 @@ execute_process(COMMAND ${CMAKE_COMMAND} -S ${EMBED_SOURCE_DIR} -B ${WORK_DIR}/b
                 -DCMAKE_CXX_COMPILER=${EMBED_CXX_COMPILER}
                 RESULT_VARIABLE rc)
 if(rc)
-  message(FATAL_ERROR "configuring examples/embed against the installed palpate failed")
+  message(FATAL_ERROR "configuring ${EMBED_SOURCE_DIR} against the installed palpate failed")
 endif()
 execute_process(COMMAND ${CMAKE_COMMAND} --build ${WORK_DIR}/build -j2 RESULT_VARIABLE rc)
 if(rc)
-  message(FATAL_ERROR "building examples/embed failed")
+  message(FATAL_ERROR "building ${EMBED_SOURCE_DIR} failed")
 endif()
-execute_process(COMMAND ${WORK_DIR}/build/embed ${PALPATE_DATA_DIR}/meshes/liver.msh
+separate_arguments(args UNIX_COMMAND "${EMBED_ARGS}")
+execute_process(COMMAND ${WORK_DIR}/build/${EMBED_PROGRAM} ${args}
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 message("${out}${err}")
-if(rc OR NOT out MATCHES "181 vertices, 596 tetrahedra")
-  message(FATAL_ERROR "examples/embed did not run as expected (exit ${rc})")
+if(rc OR NOT out MATCHES "${EMBED_EXPECT}")
+  message(FATAL_ERROR "${EMBED_PROGRAM} did not run as expected (exit ${rc}; expected output matching '${EMBED_EXPECT}')")
+endif()
+if(EMBED_FORBID)
+  execute_process(COMMAND ldd ${WORK_DIR}/build/${EMBED_PROGRAM} RESULT_VARIABLE rc OUTPUT_VARIABLE libs)
+  if(rc)
+    message(FATAL_ERROR "ldd ${EMBED_PROGRAM} failed")
+  endif()
+  message("${EMBED_PROGRAM} loads:\n${libs}")
+  string(REGEX MATCHALL "[^ \t\n]*(${EMBED_FORBID})[^ \t\n]*" found "${libs}")
+  if(found)
+    message(FATAL_ERROR "${EMBED_PROGRAM} loads libraries it must not need: ${found}")
+  endif()
+  if(NOT libs MATCHES "libpalpate_tissue")
+    message(FATAL_ERROR "${EMBED_PROGRAM} does not load libpalpate_tissue: is the check looking at the right program?")
+  endif()
 endif()
