@@ -3,7 +3,7 @@
 // 10k tick against the machine"). A buffer of the given size is summed again and again with
 // 512-bit loads (256-bit without AVX-512), so it sits in L1/L2 when small and in L3 when larger
 // than L2; bytes_per_second is the read rate. Not palpate code: a reference for its numbers.
-#include <palpate/spring.h>  // CacheLineAllocator
+#include "core/memory.h"  // CacheLineAllocator
 
 #include <benchmark/benchmark.h>
 

@@ -19,6 +19,7 @@ namespace {
 struct PrecomputeArgs {
   std::string input;
   std::string out;
+  std::string cache;
   std::string tissue;
   double dt = 0.001;
   std::string solver = "sparse";
@@ -81,7 +82,8 @@ int precompute_command(const PrecomputeArgs& a) {
     for (size_t i = 0; i < scene->tissues.size(); ++i) {
       const TissueDef& t = scene->tissues[i];
       if (t.model != "mass_spring" || (!a.tissue.empty() && t.name != a.tissue)) continue;
-      auto setup = spring_setup(*scene, static_cast<int>(i));
+      auto setup = spring_setup(*scene, static_cast<int>(i),
+                                file_tissue_services(a.cache.empty() ? default_predictor_cache() : std::filesystem::path(a.cache)));
       if (!setup) {
         fmt::print(stderr, "palpate precompute: {}\n", setup.error().message);
         return 2;
@@ -149,7 +151,8 @@ void add_precompute_command(CLI::App& app) {
       "precompute", "Build a mass-spring organ's implicit predictor and write it to a file (loaded by `run`)");
   c->add_option("input", a->input, "A scene (.yaml: every mass_spring tissue) or a mesh file")
       ->required()->check(CLI::ExistingFile);
-  c->add_option("--out,-o", a->out, "Predictor file (default: the tissue's `predictor`, or MESH.predictor)");
+  c->add_option("--out,-o", a->out, "Predictor file (default: the tissue's `predictor`, else the cache's file for it; MESH.predictor)");
+  c->add_option("--cache", a->cache, "Folder for the predictors a scene does not name (default: $XDG_CACHE_HOME/palpate/predictors or ~/.cache/palpate/predictors)");
   c->add_option("--tissue", a->tissue, "Scene: only the mass_spring tissue with this name");
   c->add_option("--dt", a->dt, "Mesh: time step the predictor is built for, s")->check(CLI::Range(1e-6, 0.5));
   c->add_option("--solver", a->solver, "Mesh: desbrun (dense inverse) or sparse (LDLT)")->check(CLI::IsMember({"desbrun", "sparse"}));

@@ -56,6 +56,7 @@ class InterruptHandler {
 struct RunArgs {
   std::string scene;
   std::string out;
+  std::string cache;
   bool quiet = false;
   bool realtime = false;
   std::string device;       // overrides device.kind
@@ -88,6 +89,7 @@ int run_command(const RunArgs& a) {
   }
   RunOptions opt;
   if (!a.out.empty()) opt.out = a.out;
+  if (!a.cache.empty()) opt.cache = a.cache;
   opt.realtime = a.realtime;
   if (a.realtime) prepare_realtime_process();
   if (a.physics_rate > 0) opt.physics_dt.assign(scene->tissues.size(), 1.0 / a.physics_rate);
@@ -218,6 +220,7 @@ void add_run_command(CLI::App& app) {
   run->add_option("scene", args->scene, "Scene file (YAML, see docs/scene-format.md)")
       ->required()->check(CLI::ExistingFile);
   run->add_option("--out,-o", args->out, "Output directory (default: the scene's `output`)");
+  run->add_option("--cache", args->cache, "Folder for the predictors a scene does not name (default: $XDG_CACHE_HOME/palpate/predictors or ~/.cache/palpate/predictors)");
   run->add_flag("--quiet,-q", args->quiet, "Print nothing but errors");
   run->add_flag("--realtime", args->realtime,
                 "Pace the run by the wall clock on a 1 kHz haptic thread (same outputs, plus period "

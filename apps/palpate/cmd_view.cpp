@@ -64,6 +64,7 @@ void add_view_command(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   view->add_flag("--exit", args->options.exit_after,
                  "Exit by itself after --frames frames (and a --probe settled); ignores the mouse");
+  view->add_option("--cache", args->options.cache, "Folder for the predictors a scene does not name (default: $XDG_CACHE_HOME/palpate/predictors or ~/.cache/palpate/predictors)");
   view->add_option("--screenshot", args->options.screenshot,
                    "PNG written on exit (and by the F12 / S key); written atomically");
   view->add_option("--probe", args->probe,

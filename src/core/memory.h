@@ -1,5 +1,6 @@
 // memory.h — how much memory this process may use, for the load-time estimates that refuse what
-// cannot fit (a patch, a mesh, a predictor, a scene's waypoints) before it is built.
+// cannot fit (a patch, a mesh, a predictor, a scene's waypoints) before it is built; and the
+// cache-line allocator of the solvers' aligned layouts.
 #pragma once
 
 #include <fmt/format.h>
@@ -7,7 +8,9 @@
 #include <algorithm>
 #include <charconv>
 #include <cstdlib>
+#include <cstddef>
 #include <cstring>
+#include <new>
 #include <string>
 #include <unistd.h>
 
@@ -33,5 +36,19 @@ inline std::string memory_text(double bytes) {
   if (bytes >= 1e6) return fmt::format("{:.3g} MB", bytes * 1e-6);
   return fmt::format("{:.3g} kB", bytes * 1e-3);
 }
+
+// std::allocator's job on 64-byte boundaries (a cache line, an AVX-512 register), so that blocks of
+// values laid out on multiples of eight doubles are aligned loads.
+template <typename T>
+struct CacheLineAllocator {
+  using value_type = T;
+  CacheLineAllocator() noexcept = default;
+  template <typename U>
+  CacheLineAllocator(const CacheLineAllocator<U>&) noexcept {}  // NOLINT(google-explicit-constructor)
+  T* allocate(std::size_t count) { return static_cast<T*>(::operator new(count * sizeof(T), std::align_val_t{64})); }
+  // The unsized aligned delete: the sized one needs -fsized-deallocation, which clang leaves off.
+  void deallocate(T* p, std::size_t) noexcept { ::operator delete(p, std::align_val_t{64}); }
+  friend bool operator==(const CacheLineAllocator&, const CacheLineAllocator&) noexcept { return true; }
+};
 
 }  // namespace palpate

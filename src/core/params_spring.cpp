@@ -32,7 +32,7 @@ std::span<const Param<SpringMaterialDef>> param_table(const SpringMaterialDef*) 
       {"grasp_stiffness", &D::grasp_stiffness, 0.0, 1e7, "N/m", "stiffness tying each grasped vertex to the tool"},
       {"grasp_release_time", &D::grasp_release_time, 0.0, 1.0, "s",
        "a let-go grasp's springs fade to zero over this time (the jaws opening), not at once"},
-      {"predictor", &D::predictor, 0, 0, "", "predictor file written by `palpate precompute`"},
+      {"predictor", &D::predictor, 0, 0, "", "predictor file (written by `palpate precompute` or the first run); empty: the predictor cache's (`--cache`; ~/.cache/palpate/predictors), never beside the scene"},
       {"predictor_policy", &D::predictor_policy, 0, 0, "",
        "on a missing or mismatched predictor file: recompute it, or stop", "load_or_compute|require_file"},
       {"single_precision", &D::single_precision, 0, 1, "",

@@ -112,6 +112,7 @@ SimulationOptions run_simulation_options(const SceneDef& scene, const RunOptions
   so.realtime = options.realtime;
   so.realtime_priority = options.realtime_priority;
   so.physics_dt = options.physics_dt;
+  so.cache = options.cache;
   // Frames: each tissue hands its drawn state over through a SnapshotTissue (allocation-free on the
   // stepping thread). Ultrasound images show the vein's wall tented where the needle pushes it: the
   // scene's `vein` tissue hands its particles over the same way.

@@ -116,8 +116,9 @@ Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene_in, 
   auto scene = expand_anatomy(scene_in);  // the neck's layers generated here, not by the parser
   if (!scene) return scene.error();
   std::vector<std::unique_ptr<Tissue>> tissues;
+  const TissueServices services = file_tissue_services(options.cache.empty() ? default_predictor_cache() : options.cache);
   for (int i = 0; i < static_cast<int>(scene->tissues.size()); ++i) {
-    auto t = make_tissue(*scene, i, file_tissue_services());
+    auto t = make_tissue(*scene, i, services);
     if (!t) return t.error();
     tissues.push_back(std::move(*t));
   }

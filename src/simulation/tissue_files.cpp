@@ -6,6 +6,11 @@
 
 #include "simulation/predictor_file.h"
 
+#include <algorithm>
+#include <cstdint>
+#include <cstdlib>
+#include <vector>
+
 namespace palpate {
 namespace {
 
@@ -16,10 +21,37 @@ Result<TetMesh> load_tet_file(const std::filesystem::path& file, double scale) {
 Result<TetMesh> fill_surface(const SurfaceMesh& surface, const FillOptions& options) {
   return tetrahedralize(surface, options);
 }
-Result<std::string> read_predictor_file(const std::filesystem::path& file) {
-  return read_checked_file(file, predictor_file_format());
+Result<StoredPredictor> read_predictor_file(const std::filesystem::path& file) {
+  std::error_code ec;
+  StoredPredictor stored;
+  if (!std::filesystem::exists(file, ec)) {
+    stored.why = file.string() + ": no predictor file";
+    return stored;
+  }
+  if (Status s = check_regular_file(file, predictor_file_format().expected); !s) return s.error();
+  Result<std::string> payload = read_checked_file(file, predictor_file_format());
+  if (!payload) {
+    stored.why = payload.error().message;
+    return stored;
+  }
+  stored.present = true;
+  stored.payload = std::move(*payload);
+  // Used now: the cache keeps what was used last (prune_predictor_cache removes the oldest first).
+  std::filesystem::last_write_time(file, std::filesystem::file_time_type::clock::now(), ec);
+  return stored;
 }
+// The cache's size limit: PALPATE_CACHE_BYTES, else 4 GB.
+std::uintmax_t cache_limit() {
+  if (const char* v = std::getenv("PALPATE_CACHE_BYTES"); v && *v) {
+    char* end = nullptr;
+    const double bytes = std::strtod(v, &end);
+    if (end && *end == '\0' && bytes >= 0) return static_cast<std::uintmax_t>(bytes);
+  }
+  return std::uintmax_t{4} << 30;
+}
+
 Status write_predictor_file(const std::filesystem::path& file, std::string_view payload) {
+  (void)remove_stale_temporaries(file);  // a run killed while saving this predictor left one
   return write_checked_file(file, predictor_file_format(), payload);
 }
 
@@ -35,16 +67,57 @@ const CheckedFileFormat& predictor_file_format() {
   return format;
 }
 
-const TissueServices& file_tissue_services() {
-  static const TissueServices services{
+std::filesystem::path default_predictor_cache() {
+  const std::filesystem::path dir = default_cache_dir();
+  return dir.empty() ? dir : dir / "predictors";
+}
+
+size_t prune_predictor_cache(const std::filesystem::path& cache, std::uintmax_t max_bytes) {
+  namespace fs = std::filesystem;
+  struct Entry {
+    fs::file_time_type used;
+    std::uintmax_t bytes;
+    fs::path path;
+  };
+  std::vector<Entry> entries;
+  std::uintmax_t total = 0;
+  std::error_code ec;
+  for (fs::directory_iterator it(cache, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+    if (it->path().extension() != ".predictor" || !it->is_regular_file(ec)) continue;
+    Entry e{it->last_write_time(ec), it->file_size(ec), it->path()};
+    if (ec) continue;
+    total += e.bytes;
+    entries.push_back(std::move(e));
+  }
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) { return a.used < b.used; });
+  size_t removed = 0;
+  for (size_t i = 0; i + 1 < entries.size() && total > max_bytes; ++i) {  // the newest always stays
+    std::error_code gone;
+    if (fs::remove(entries[i].path, gone)) {
+      total -= entries[i].bytes;
+      ++removed;
+    }
+  }
+  return removed;
+}
+
+TissueServices file_tissue_services(std::filesystem::path predictor_cache) {
+  TissueServices s{
       .load_surface = &load_surface_file,
       .load_tet = &load_tet_file,
       .fill = &fill_surface,
       .remesh = &remesh_isotropic,
       .read_predictor = &read_predictor_file,
       .write_predictor = &write_predictor_file,
+      .predictor_cache = predictor_cache,
   };
-  return services;
+  // A predictor saved into the cache may push it past its limit: the least recently used go.
+  s.write_predictor = [cache = std::move(predictor_cache)](const std::filesystem::path& file, std::string_view payload) {
+    Status st = write_predictor_file(file, payload);
+    if (st && !cache.empty() && file.parent_path() == cache) (void)prune_predictor_cache(cache, cache_limit());
+    return st;
+  };
+  return s;
 }
 
 Result<std::unique_ptr<Tissue>> make_tissue(const SceneDef& scene, int index) {
@@ -73,7 +146,7 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
 Status save_predictor(const std::filesystem::path& file, const SpringModel& model) {
   Result<std::string> payload = encode_predictor(model, file.string());
   if (!payload) return payload.error();
-  return write_checked_file(file, predictor_file_format(), *payload);
+  return write_predictor_file(file, *payload);
 }
 
 Result<SpringPredictor> load_predictor(const std::filesystem::path& file, const SpringNetwork& network,

@@ -21,6 +21,7 @@ struct ViewerOptions {
   int frames = 0;                    // with exit_after: draw at least this many frames
   bool exit_after = false;           // exit by itself after `frames` (and a scripted probe settled)
   std::filesystem::path screenshot;  // written when exiting; also the F12 / S key's file
+  std::filesystem::path cache;       // predictor cache; "" = default_predictor_cache()
   std::optional<ProbeRequest> probe; // press the tool in at start
   int width = 0, height = 0;         // window size in pixels; 0 = the scene camera's
   double overrun_margin = -1;        // s, the haptic watchdog's margin; < 0 = the scene's device.overrun_margin

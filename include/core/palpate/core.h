@@ -66,6 +66,15 @@ class [[nodiscard]] Status {
 Status write_file_atomic(const std::filesystem::path& file, std::string_view bytes,
                          bool create_directories = true);
 
+// Remove the temporary files write_file_atomic left beside `file` ("<file>.tmp-<pid>-<n>") whose
+// writer is no longer running (a run killed while saving); a running writer's are kept. Returns how
+// many were removed. Never throws; a folder it cannot read removes nothing.
+size_t remove_stale_temporaries(const std::filesystem::path& file) noexcept;
+
+// The folder palpate keeps caches in (not created here): $XDG_CACHE_HOME/palpate when that is an
+// absolute path, else $HOME/.cache/palpate; empty (keep no cache) when neither is set.
+std::filesystem::path default_cache_dir();
+
 // Whether `file` is a regular file (symbolic links followed), checked with stat before anything
 // opens it: a directory, a FIFO (opening it would block), a device such as /dev/zero (reading it
 // would never end) or a socket is refused naming the path, what it is, and `expected` ("a YAML

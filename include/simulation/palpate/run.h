@@ -21,6 +21,7 @@ namespace palpate {
 
 struct RunOptions {
   std::filesystem::path out;                         // output directory; "" = the scene's
+  std::filesystem::path cache;                       // predictor cache; "" = default_predictor_cache()
   std::function<void(double fraction)> progress;     // called now and then, off the tick path
   bool plots = true;                                 // force_time.png, force_depth.png (gnuplot)
   bool realtime = false;          // wall-clock paced on the haptic thread (1 tick per dt of real time)

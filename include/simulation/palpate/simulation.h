@@ -59,6 +59,8 @@ struct SimulationOptions {
   double overrun_margin = -1;       // s; < 0 = the scene's device.overrun_margin
   bool stop_after_duration = true;  // the loop stops by itself after the scene's duration
   std::vector<DeviceOverride> devices;
+  std::filesystem::path cache;      // predictors the scene does not name are kept here (shared
+                                    // between runs); "" = default_predictor_cache()
 };
 
 // The loop settings a scene gives (coupling, proxy, watchdog, ramp, tool, outcome model), with the

@@ -11,6 +11,7 @@
 #include <palpate/spring.h>
 #include <palpate/tissue.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -20,9 +21,22 @@ namespace palpate {
 // The predictor file: "PALPPRED", version 1, around encode_predictor's payload.
 const CheckedFileFormat& predictor_file_format();
 
+// Where predictors a scene does not name are kept by default: default_cache_dir()/predictors
+// ($XDG_CACHE_HOME/palpate/predictors, else ~/.cache/palpate/predictors; empty, none kept, when
+// neither variable is set).
+std::filesystem::path default_predictor_cache();
+
 // Every service from files and meshers: load_surface, load_tet, tetrahedralize, remesh_isotropic,
-// and predictor files (read_checked_file / write_checked_file in predictor_file_format()).
-const TissueServices& file_tissue_services();
+// and predictor files (read_checked_file / write_checked_file in predictor_file_format(); a write
+// first removes the temporary files a killed writer left beside it), predictors the scene does not
+// name kept in `predictor_cache`.
+TissueServices file_tissue_services(std::filesystem::path predictor_cache = default_predictor_cache());
+
+// Remove the least recently used predictors (by their files' time: a load touches it) from `cache`
+// until its *.predictor files take at most `max_bytes`; the newest always stays. `palpate run` and
+// `view` keep their cache under PALPATE_CACHE_BYTES (default 4 GB) this way after each save.
+// Returns how many were removed.
+size_t prune_predictor_cache(const std::filesystem::path& cache, std::uintmax_t max_bytes);
 
 // make_tissue with file_tissue_services().
 Result<std::unique_ptr<Tissue>> make_tissue(const SceneDef& scene, int index);

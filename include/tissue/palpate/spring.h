@@ -185,20 +185,6 @@ struct SpringPredictor {
   bool empty() const { return inverse.empty() && value.empty() && inv_diag.empty(); }
 };
 
-// std::allocator's job on 64-byte boundaries (a cache line, an AVX-512 register), so that blocks of
-// values laid out on multiples of eight doubles are aligned loads.
-template <typename T>
-struct CacheLineAllocator {
-  using value_type = T;
-  CacheLineAllocator() noexcept = default;
-  template <typename U>
-  CacheLineAllocator(const CacheLineAllocator<U>&) noexcept {}  // NOLINT(google-explicit-constructor)
-  T* allocate(std::size_t count) { return static_cast<T*>(::operator new(count * sizeof(T), std::align_val_t{64})); }
-  // The unsized aligned delete: the sized one needs -fsized-deallocation, which clang leaves off.
-  void deallocate(T* p, std::size_t) noexcept { ::operator delete(p, std::align_val_t{64}); }
-  friend bool operator==(const CacheLineAllocator&, const CacheLineAllocator&) noexcept { return true; }
-};
-
 namespace spring {
 struct SolverLayouts;  // src/tissue/spring/layouts.h
 }
@@ -409,6 +395,9 @@ bool use_exact_contact_compliance(SpringModel& model);
 // Predictors as bytes (the file around them is palpate/tissue_files.h's; docs/models/mass-spring.md).
 // FNV-1a 64 of the network's rest positions: the "mesh" a predictor was made for.
 std::uint64_t mesh_hash(const SpringNetwork& network);
+// FNV-1a 64 of everything a predictor depends on (what decode_predictor compares): the name of a
+// cached predictor, so one made for this network and these options is found again.
+std::uint64_t predictor_key(const SpringNetwork& network, const SpringModelOptions& options);
 // The model's predictor with every parameter it depends on, as a predictor file's payload. An
 // exact-solver model has none (an error naming `where`).
 Result<std::string> encode_predictor(const SpringModel& model, const std::string& where);
@@ -430,7 +419,8 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
 // What a scene's mass_spring tissue asks for: its network (from TissueDef::mesh — a tet file, or a
 // surface, filled with tetrahedra by tetrahedralize() when the topology is tet_edges — or from
 // TissueDef::patch, a flat sheet), the model options (dt = the scene's tick), and the predictor file
-// (TissueDef::spring.predictor resolved against the scene's directory, or "<output>/<name>.predictor").
+// (TissueDef::spring.predictor resolved against the scene's directory, or, when it names none, the
+// builder's predictor cache: "<services.predictor_cache>/<name>-<predictor_key as 16 hex>.predictor").
 struct SpringTissueSetup {
   SpringNetwork network;
   SpringModelOptions options;

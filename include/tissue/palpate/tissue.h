@@ -8,6 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -87,6 +88,13 @@ class Tissue {
 // after building the tissues and again after replacing one.
 void link_layers(std::span<Tissue* const> tissues);
 
+// A predictor as its store found it (TissueServices::read_predictor).
+struct StoredPredictor {
+  bool present = false;  // a payload was read; otherwise `why` says why none is usable
+  std::string payload;   // the spring model's bytes (decode_predictor)
+  std::string why;       // absent or unusable: "x.predictor: no predictor file", "...: corrupted: checksum mismatch"
+};
+
 // What a tissue model needs from the layers above it, handed in by whoever builds it (the
 // Simulation's builder: file_tissue_services() in palpate/tissue_files.h). A model never opens a
 // file nor runs a mesher itself (DESIGN.md §3): a program that builds models from meshes it made
@@ -94,18 +102,22 @@ void link_layers(std::span<Tissue* const> tissues);
 // service left null is an error naming what was asked for, when a scene needs it.
 struct TissueServices {
   // A surface mesh file, scaled and validated against `need` (palpate/mesh_load.h's load_surface).
-  Result<SurfaceMesh> (*load_surface)(const std::filesystem::path& file, double scale,
-                                      const SurfaceRequirements& need) = nullptr;
+  std::function<Result<SurfaceMesh>(const std::filesystem::path& file, double scale, const SurfaceRequirements& need)>
+      load_surface;
   // A tetrahedral mesh file, scaled and validated (load_tet).
-  Result<TetMesh> (*load_tet)(const std::filesystem::path& file, double scale) = nullptr;
+  std::function<Result<TetMesh>(const std::filesystem::path& file, double scale)> load_tet;
   // A closed surface filled with tetrahedra (palpate/meshing.h's tetrahedralize).
-  Result<TetMesh> (*fill)(const SurfaceMesh& surface, const FillOptions& options) = nullptr;
+  std::function<Result<TetMesh>(const SurfaceMesh& surface, const FillOptions& options)> fill;
   // A surface remeshed isotropically to `target_edge` (remesh_isotropic).
-  Result<SurfaceMesh> (*remesh)(const SurfaceMesh& surface, double target_edge, const std::string& where) = nullptr;
-  // A spring model's predictor: the payload stored at `file` (an error says why there is none
-  // usable: missing, damaged, another format), and storing one (atomically).
-  Result<std::string> (*read_predictor)(const std::filesystem::path& file) = nullptr;
-  Status (*write_predictor)(const std::filesystem::path& file, std::string_view payload) = nullptr;
+  std::function<Result<SurfaceMesh>(const SurfaceMesh& surface, double target_edge, const std::string& where)> remesh;
+  // A spring model's predictor: what is stored at `file` (absent, unusable and why, or its payload);
+  // an error when the path is refused outright (a directory, a FIFO, a device: never computed
+  // around, nor renamed over). And storing one (atomically).
+  std::function<Result<StoredPredictor>(const std::filesystem::path& file)> read_predictor;
+  std::function<Status(const std::filesystem::path& file, std::string_view payload)> write_predictor;
+  // Where a predictor the scene does not name is kept (material.predictor empty): shared between
+  // runs, named by the tissue and predictor_key. Empty: such a predictor is computed every time.
+  std::filesystem::path predictor_cache;
 };
 
 // Build the tissue a scene describes (its meshes and predictor through `services`; precomputes

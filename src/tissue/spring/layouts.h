@@ -5,6 +5,8 @@
 
 #include <palpate/spring.h>
 
+#include "core/memory.h"
+
 #include <vector>
 
 namespace palpate::spring {

@@ -75,6 +75,24 @@ std::uint32_t solver_code(SpringSolver s) {
   return s == SpringSolver::desbrun ? 0u : s == SpringSolver::sparse ? 1u : 2u;
 }
 
+// Everything a predictor depends on, in the payload's order: the part decode_predictor compares.
+void put_parameters(Writer& w, const SpringNetwork& net, SpringSolver kind, const SpringModelOptions& options) {
+  w.put(mesh_hash(net));
+  w.put(static_cast<std::uint64_t>(net.size()));
+  w.put(static_cast<std::uint64_t>(net.springs.size()));
+  w.put(solver_code(kind));
+  w.put(static_cast<std::uint32_t>(net.anchors.size()));
+  w.put(options.dt);
+  w.put(options.point_damping);
+  w.put_array(net.mass.data(), net.mass.size());
+  w.put_array(net.springs.data()->data(), 2 * net.springs.size());
+  // Each spring's weight in A: its stiffness, plus the volume term's share when there is one.
+  const std::vector<double> weight = predictor_stiffness(net);
+  w.put_array(weight.data(), weight.size());
+  w.put_array(net.damping.data(), net.damping.size());
+  w.put_array(net.anchors.data(), net.anchors.size());
+}
+
 }  // namespace
 
 std::uint64_t mesh_hash(const SpringNetwork& net) {
@@ -82,6 +100,16 @@ std::uint64_t mesh_hash(const SpringNetwork& net) {
   w.put(static_cast<std::uint64_t>(net.rest.rows()));
   for (Eigen::Index i = 0; i < net.rest.rows(); ++i)
     for (int c = 0; c < 3; ++c) w.put(net.rest(i, c));
+  return fnv1a64(w.buf.data(), w.buf.size());
+}
+
+std::uint64_t predictor_key(const SpringNetwork& network, const SpringModelOptions& options) {
+  Writer w;
+  put_parameters(w, network, options.solver, options);
+  // And the code that computed it: another palpate's predictor (an ordering or factorisation
+  // changed since) is never picked up from a shared cache.
+  const std::string code = std::string("palpate ") + version();
+  w.put_array(code.data(), code.size());
   return fnv1a64(w.buf.data(), w.buf.size());
 }
 
@@ -93,20 +121,7 @@ Result<std::string> encode_predictor(const SpringModel& model, const std::string
   Writer w;
   w.buf.reserve(64 + net.size() * 8 + net.springs.size() * 24 + p.inverse.size() * 8 +
                 p.value.size() * 12 + net.size() * 16);
-  w.put(mesh_hash(net));
-  w.put(static_cast<std::uint64_t>(net.size()));
-  w.put(static_cast<std::uint64_t>(net.springs.size()));
-  w.put(solver_code(p.kind));
-  w.put(static_cast<std::uint32_t>(net.anchors.size()));
-  w.put(model.options.dt);
-  w.put(model.options.point_damping);
-  w.put_array(net.mass.data(), net.mass.size());
-  w.put_array(net.springs.data()->data(), 2 * net.springs.size());
-  // Each spring's weight in A: its stiffness, plus the volume term's share when there is one.
-  const std::vector<double> weight = predictor_stiffness(net);
-  w.put_array(weight.data(), weight.size());
-  w.put_array(net.damping.data(), net.damping.size());
-  w.put_array(net.anchors.data(), net.anchors.size());
+  put_parameters(w, net, p.kind, model.options);
   if (p.kind == SpringSolver::desbrun) {
     w.put_array(p.inverse.data(), p.inverse.size());
   } else {
@@ -238,24 +253,19 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
     if (note) *note = "computed";
     return build_spring_model(std::move(network), options, progress);
   }
-  std::string why;
-  std::error_code ec;
-  // A directory, FIFO or device under the predictor's name is refused, not computed around and
-  // then renamed over (a FIFO would be replaced by the saved file).
-  if (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec))
-    return check_regular_file(file, "a palpate predictor file (material.predictor)").error();
-  if (std::filesystem::exists(file, ec)) {
-    if (!services.read_predictor) return Error{file.string() + ": no predictor reader was handed to the model's builder"};
-    Result<std::string> bytes = services.read_predictor(file);
-    Result<SpringPredictor> loaded =
-        bytes ? decode_predictor(*bytes, network, options, file.string() + ": ") : Result<SpringPredictor>(bytes.error());
+  if (!services.read_predictor) return Error{file.string() + ": no predictor reader was handed to the model's builder"};
+  // A directory, FIFO or device under the predictor's name is refused by the reader, not computed
+  // around and then renamed over (a FIFO would be replaced by the saved file).
+  Result<StoredPredictor> stored = services.read_predictor(file);
+  if (!stored) return stored.error();
+  std::string why = stored->why;
+  if (stored->present) {
+    Result<SpringPredictor> loaded = decode_predictor(stored->payload, network, options, file.string() + ": ");
     if (loaded) {
       if (note) *note = "loaded " + file.string();
       return build_spring_model(std::move(network), options, std::move(*loaded));
     }
     why = loaded.error().message;
-  } else {
-    why = file.string() + ": no predictor file";
   }
   if (policy == PredictorPolicy::require_file) return Error{why + " (predictor_policy: require_file)"};
   auto model = build_spring_model(std::move(network), options, progress);

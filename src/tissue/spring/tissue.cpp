@@ -7,6 +7,8 @@
 #include "tissue/spring/shapes.h"
 
 #include <array>
+#include <cctype>
+#include <cstdio>
 #include <cmath>
 #include <memory>
 
@@ -222,9 +224,16 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index, const T
   if (!m.predictor.empty()) {
     const std::filesystem::path p = m.predictor;
     setup.predictor = p.is_absolute() ? p : base / p;
-  } else if (o.solver != SpringSolver::exact) {
-    const std::filesystem::path out = scene.output.is_absolute() ? scene.output : base / scene.output;
-    setup.predictor = out / (t.name.empty() ? "tissue" + std::to_string(index) + ".predictor" : t.name + ".predictor");
+  } else if (o.solver != SpringSolver::exact && !services.predictor_cache.empty()) {
+    // In the cache, never beside the scene: named by the tissue (letters, digits, '-' and '_'
+    // kept) and by everything the predictor depends on, so another scene's organ, or this one
+    // changed, gets its own file and an unchanged one finds it again.
+    std::string name = t.name.empty() ? "tissue" + std::to_string(index) : t.name;
+    for (char& c : name)
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '_';
+    char key[17];
+    std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(predictor_key(setup.network, o)));
+    setup.predictor = services.predictor_cache / (name + "-" + key + ".predictor");
   }
   return setup;
 }

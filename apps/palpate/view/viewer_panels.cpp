@@ -1,0 +1,242 @@
+// viewer_panels.cpp — the `palpate view` window's ImGui panels: display toggles, material edits
+// (applied by rebuilding the tissue off the GUI thread and handing it over), loop timing and
+// stages, the outcome, the live force plot, and the ultrasound image.
+#include "viewer_impl.h"
+
+namespace palpate::view::detail {
+namespace {
+
+// The edit panel's fields for one material struct, from its parameter table.
+template <class Def>
+bool edit_params(Def& def) {
+  bool changed = false;
+  for (const Param<Def>& p : param_table(static_cast<const Def*>(nullptr))) {
+    ImGui::PushID(p.key);
+    if (auto* d = std::get_if<double Def::*>(&p.field)) {
+      double& v = def.*(*d);
+      if (ImGui::InputDouble(p.key, &v, 0, 0, "%.6g")) {
+        v = std::clamp(v, p.min, p.max);
+        changed = true;
+      }
+    } else if (auto* i = std::get_if<int Def::*>(&p.field)) {
+      int& v = def.*(*i);
+      if (ImGui::InputInt(p.key, &v)) {
+        v = static_cast<int>(std::clamp(static_cast<double>(v), p.min, p.max));
+        changed = true;
+      }
+    } else if (auto* b = std::get_if<bool Def::*>(&p.field)) {
+      changed |= ImGui::Checkbox(p.key, &(def.*(*b)));
+    } else if (auto* s = std::get_if<std::string Def::*>(&p.field)) {
+      std::string& v = def.*(*s);
+      const std::string choices = p.choices;
+      if (!choices.empty() && ImGui::BeginCombo(p.key, v.c_str())) {
+        size_t start = 0;
+        while (start <= choices.size()) {
+          const size_t bar = std::min(choices.find('|', start), choices.size());
+          const std::string choice = choices.substr(start, bar - start);
+          if (ImGui::Selectable(choice.c_str(), choice == v)) {
+            v = choice;
+            changed = true;
+          }
+          start = bar + 1;
+        }
+        ImGui::EndCombo();
+      }
+    }
+    if (ImGui::IsItemHovered() && (*p.doc || *p.unit))
+      ImGui::SetTooltip("%s%s%s%s", p.doc, *p.unit ? " (" : "", p.unit, *p.unit ? ")" : "");
+    ImGui::PopID();
+  }
+  return changed;
+}
+
+}  // namespace
+
+void Viewer::draw_ultrasound_panel() {
+  if (!probe_feeder_) return;
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  const float side = std::clamp(0.4f * display.y, 160.0f, 512.0f);
+  ImGui::SetNextWindowPos(ImVec2(display.x - side - 24, 8), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(side + 16, 0), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Ultrasound");
+  ImGui::Checkbox("image", &show_ultrasound_);
+  ImGui::SameLine();
+  ImGui::Checkbox("plane in 3-D", &show_plane_);
+  if (show_ultrasound_ && us_texture_) {
+    const float w = ImGui::GetContentRegionAvail().x;
+    const float h = us_image_.width > 0 ? w * float(us_image_.height * us_image_.pixel_depth) /
+                                              float(us_image_.width * us_image_.pixel_width)
+                                        : w;
+    ImGui::Image(reinterpret_cast<ImTextureID>(static_cast<std::intptr_t>(us_texture_)), ImVec2(w, h));
+  }
+  const Vec3 p = probe_feeder_->position();
+  ImGui::Text("probe %.1f, %.1f, %.1f mm  |F| %.2f N", 1e3 * p.x(), 1e3 * p.y(), 1e3 * p.z(),
+              probe_device_->force().norm());
+  if (us_feed_)
+    ImGui::Text("%s  %.1f ms per image", us_image_.in_contact ? "on the skin" : "not touching",
+                1e3 * us_feed_->last_render_seconds());
+  ImGui::TextDisabled("shift + right drag: move the probe, wheel: press");
+  ImGui::TextDisabled("shift + ctrl + left drag: tilt it");
+  ImGui::End();
+}
+
+void Viewer::finish_rebuild() {
+  if (rebuilding_ < 0 || !rebuild_.valid() ||
+      rebuild_.wait_for(std::chrono::seconds(0)) != std::future_status::ready)
+    return;
+  const int i = rebuilding_;
+  rebuilding_ = -1;
+  auto built = rebuild_.get();
+  if (!built) {
+    rebuild_message_ = built.error().message;
+    return;
+  }
+  // The hand-over: the haptic thread is stopped (joined) before the old tissue goes, so it never
+  // steps a tissue being replaced; forces ramp in again from zero when the loop restarts.
+  stop_loop();
+  // The layers below held the old one: the Simulation relinks them to press from the new one.
+  if (Status replaced = sim_->replace_tissue(static_cast<size_t>(i), std::move(*built), edits_[static_cast<size_t>(i)]); !replaced) {
+    rebuild_message_ = replaced.error().message;
+    return;
+  }
+  tissues_[static_cast<size_t>(i)] = sim_->snapshot(static_cast<size_t>(i));
+  views_[static_cast<size_t>(i)] = TissueView{};
+  scene_.tissues[static_cast<size_t>(i)] = edits_[static_cast<size_t>(i)];
+  Status started = start_loop();
+  rebuild_message_ = started ? "applied to " + scene_.tissues[static_cast<size_t>(i)].name
+                             : "haptic loop did not restart: " + started.error().message;
+  if (!started) loop_error_ = started.error().message;
+}
+
+void Viewer::draw_panels() {
+  ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(340, 0), ImGuiCond_FirstUseEver);
+  ImGui::Begin("palpate");
+  ImGui::Text("%s  %.0f fps", scene_.name.c_str(), fps_);
+  if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) {
+    ImGui::Checkbox("surface", &show_surface_);
+    ImGui::SameLine();
+    ImGui::Checkbox("particles", &show_particles_);
+    ImGui::SameLine();
+    ImGui::Checkbox("control grid", &show_grid_);
+    ImGui::Checkbox("springs/links", &show_links_);
+    ImGui::SameLine();
+    ImGui::Checkbox("tool", &show_tool_);
+    ImGui::SameLine();
+    ImGui::Checkbox("force arrow", &show_arrow_);
+    ImGui::TextDisabled("left drag: orbit  shift/middle: pan  wheel: zoom");
+    ImGui::TextDisabled("right drag: press the tool in, wheel: depth");
+    if (scene_.tool.kind == "needle") ImGui::TextDisabled("ctrl + left drag: tilt the needle  R: untilt");
+    ImGui::TextDisabled("F12 or S: screenshot  Esc: quit");
+  }
+  if (ImGui::CollapsingHeader("Force", ImGuiTreeNodeFlags_DefaultOpen)) {
+    const Vec3 tip = feeder_->position();
+    ImGui::Text("|F| %.3f N  (%.3f, %.3f, %.3f)", force_.norm(), force_.x(), force_.y(), force_.z());
+    ImGui::Text("tool %.1f, %.1f, %.1f mm", 1e3 * tip.x(), 1e3 * tip.y(), 1e3 * tip.z());
+    if (pressing_) ImGui::Text("depth past the surface %.1f mm", 1e3 * press_depth_);
+    if (scene_.tool.kind == "needle") {
+      const Vec3 a = needle_axis(scene_axis(), feeder_->orientation());
+      ImGui::Text("needle (%.2f, %.2f, %.2f), %.1f deg from tool.axis", a.x(), a.y(), a.z(),
+                  std::acos(std::clamp(a.dot(scene_axis()), -1.0, 1.0)) * 180 / M_PI);
+    }
+    // |F| over the last 5 s, resampled to fixed bins (frames are not evenly spaced).
+    constexpr int kBins = 150;
+    constexpr double kSpan = 5.0;
+    float bins[kBins] = {};
+    const double now = std::chrono::duration<double>(Clock::now() - start_).count();
+    size_t k = 0;
+    float last = 0;
+    for (int b = 0; b < kBins; ++b) {
+      const double t = now - kSpan + kSpan * (b + 1) / kBins;
+      while (k < force_history_.size() && force_history_[k].first <= t) last = force_history_[k++].second;
+      bins[b] = last;
+    }
+    const float top = std::max(0.5f, *std::max_element(bins, bins + kBins) * 1.1f);
+    ImGui::PlotLines("##force", bins, kBins, 0, "|F| (N), last 5 s", 0.0f, top, ImVec2(-1, 80));
+  }
+  if (scene_.tool.kind == "needle" && ImGui::CollapsingHeader("Outcome", ImGuiTreeNodeFlags_DefaultOpen)) {
+    // Live from the haptic loop's relaxed counters (docs/cvc.md, "Outcome and metrics"); a tissue
+    // rebuilt from the edit panel restarts the loop and these with it.
+    if (loop_) {
+      const TrainingMetrics m = loop_->stats().metrics;
+      ImGui::Text("outcome %s", outcome_name(m.outcome));
+      ImGui::Text("skin punctures %d  passes %d  redirections %d", m.skin_punctures, m.passes, m.redirections);
+      if (m.flashback)
+        ImGui::Text("flashback %.2f s after the skin puncture", m.time_to_flashback);
+      else
+        ImGui::TextDisabled("no flashback yet");
+      ImGui::Text("deepest %.1f mm below the skin  peak |F| %.2f N", 1e3 * m.deepest_depth, m.peak_force);
+    }
+  }
+  if (ImGui::CollapsingHeader("Haptic loop", ImGuiTreeNodeFlags_DefaultOpen)) {
+    if (loop_) {
+      const LoopStats st = loop_->stats();
+      ImGui::Text("ticks %llu  %s", static_cast<unsigned long long>(st.ticks),
+                  st.realtime_priority ? "SCHED_FIFO" : "normal priority");
+      ImGui::Text("period  med %.0f  p99 %.0f  max %.0f us", 1e6 * st.period.median, 1e6 * st.period.p99, 1e6 * st.period.max);
+      ImGui::Text("step    med %.1f  p99 %.1f  max %.1f us", 1e6 * st.step.median, 1e6 * st.step.p99, 1e6 * st.step.max);
+      // Where the millisecond goes: each stage of the tick (TickStage), median and p99.
+      for (size_t i = 0; i < kTickStageCount; ++i)
+        ImGui::Text("  %-16s med %6.1f  p99 %6.1f us", tick_stage_name(TickStage(i)), 1e6 * st.stages[i].median,
+                    1e6 * st.stages[i].p99);
+      ImGui::Text("deadline misses %llu  resyncs %llu", static_cast<unsigned long long>(st.deadline_misses),
+                  static_cast<unsigned long long>(st.resyncs));
+      ImGui::Text("zeroed: overrun %llu  stalled %llu  failed %llu",
+                  static_cast<unsigned long long>(st.safety.overrun), static_cast<unsigned long long>(st.safety.stalled),
+                  static_cast<unsigned long long>(st.safety.step_failed + st.safety.device_failed + st.safety.non_finite));
+      ImGui::Text("clamped %llu  rate-limited %llu  max |F| %.2f N", static_cast<unsigned long long>(st.safety.clamped),
+                  static_cast<unsigned long long>(st.safety.rate_limited), st.max_force);
+    } else {
+      ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "not running: %s", loop_error_.c_str());
+    }
+    std::uint64_t published = 0, growths = 0;
+    for (const auto& t : tissues_) {
+      published += t->published();
+      growths += t->capacity_growths();
+    }
+    ImGui::Text("snapshots %llu  (grown on the haptic thread: %llu)", static_cast<unsigned long long>(published),
+                static_cast<unsigned long long>(growths));
+  }
+  if (ImGui::CollapsingHeader("Tissues")) {
+    for (size_t i = 0; i < edits_.size(); ++i) {
+      TissueDef& def = edits_[i];
+      ImGui::PushID(static_cast<int>(i));
+      if (ImGui::TreeNode(def.name.empty() ? "tissue" : def.name.c_str())) {
+        ImGui::TextDisabled("%s", def.model.c_str());
+        if (def.model == "charged_particles") edit_params(def.charged);
+        else if (def.model == "mass_spring") edit_params(def.spring);
+        const bool busy = rebuilding_ >= 0;
+        if (busy) ImGui::BeginDisabled();
+        if (ImGui::Button("Apply")) {
+          // Build the new tissue off the GUI thread; finish_rebuild() hands it over.
+          SceneDef edited = scene_;
+          edited.tissues[i] = def;
+          rebuilding_ = static_cast<int>(i);
+          rebuild_message_ = "building " + def.name + "...";
+          rebuild_ = std::async(std::launch::async, [edited, i, cache = options_.cache] {
+            return make_tissue(edited, static_cast<int>(i),
+                               file_tissue_services(cache.empty() ? default_predictor_cache() : cache));
+          });
+        }
+        ImGui::SameLine();
+        if (ImGui::Button("Revert")) def = scene_.tissues[i];
+        if (busy) ImGui::EndDisabled();
+        ImGui::TreePop();
+      }
+      ImGui::PopID();
+    }
+    if (ImGui::Button("Reset all to rest")) {
+      stop_loop();
+      for (auto& t : tissues_) {
+        t->reset();
+        t->publish_now();
+      }
+      Status started = start_loop();
+      if (!started) loop_error_ = started.error().message;
+    }
+    if (!rebuild_message_.empty()) ImGui::TextWrapped("%s", rebuild_message_.c_str());
+  }
+  ImGui::End();
+}
+
+}  // namespace palpate::view::detail
