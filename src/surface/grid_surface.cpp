@@ -315,7 +315,7 @@ void SurfaceTessellator::tessellate_patch(std::span<const Vec3f> control, int i,
         const float su2 = sux * sux + suy * suy + suz * suz;
         const float sv2 = svx * svx + svy * svy + svz * svz;
         // Degenerate when |du × dv| ≤ 1e-6 |du||dv| (parallel derivatives) or either is noise.
-        ok[b] = (c2[b] > 1e-12f * su2 * sv2) & (su2 > tiny2) & (sv2 > tiny2) ? 1.0f : 0.0f;
+        ok[b] = ((c2[b] > 1e-12f * su2 * sv2) & (su2 > tiny2) & (sv2 > tiny2)) ? 1.0f : 0.0f;
       }
       degenerate += inverse_norms(c2, ok, inv, n);
       for (int b = 0; b < n; ++b) {
