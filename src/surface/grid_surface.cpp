@@ -8,7 +8,7 @@
 #include <string>
 
 #if defined(__SSE2__)
-#include <immintrin.h>
+#include "core/simd.h"
 #endif
 
 namespace palpate {
@@ -126,17 +126,15 @@ int inverse_norms(const float* c2, const float* ok, float* inv, int n) noexcept 
   int i = 0;
   float bad = 0;
 #if defined(__SSE2__)
-  __m128 bad4 = _mm_setzero_ps();
-  const __m128 one = _mm_set1_ps(1.0f), smallest = _mm_set1_ps(std::numeric_limits<float>::min());
+  using namespace simd;
+  f4 bad4 = zero<f4>();
+  const f4 one = broadcast<f4>(1.0f), smallest = broadcast<f4>(std::numeric_limits<float>::min());
   for (; i + 4 <= n; i += 4) {
-    const __m128 k = _mm_loadu_ps(ok + i);
-    const __m128 r = _mm_div_ps(k, _mm_sqrt_ps(_mm_max_ps(_mm_loadu_ps(c2 + i), smallest)));
-    _mm_storeu_ps(inv + i, r);
-    bad4 = _mm_add_ps(bad4, _mm_sub_ps(one, k));
+    const f4 k = loadu<f4>(ok + i);
+    storeu(inv + i, k / sqrt(max(loadu<f4>(c2 + i), smallest)));
+    bad4 = bad4 + (one - k);
   }
-  alignas(16) float lanes[4];
-  _mm_store_ps(lanes, bad4);
-  bad = lanes[0] + lanes[1] + lanes[2] + lanes[3];
+  bad = sum(bad4);
 #endif
   for (; i < n; ++i) {
     inv[i] = ok[i] != 0.0f ? 1.0f / std::sqrt(c2[i]) : 0.0f;

@@ -107,8 +107,10 @@ PALPATE_AVX2 void all_pairs_avx2(int n, const T* RL, const T* KS, const T* CS, T
 // (relative error below 2⁻¹⁴) and two Newton steps r ← (r/2)(3 − (l² r) r): the error e becomes
 // ≈ 1.5 e² per step, 2⁻¹⁴ → 2⁻²⁷ → 2⁻⁵³, i.e. rounding, the same accuracy as the AVX2 kernel's three
 // steps from the 12-bit float estimate.
+#if !defined(__clang__)  // GCC's warnings (clang has no -Wmaybe-uninitialized)
 #pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see core/simd.h
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 // Eight doubles from a (a vertex array at the block's first j), or only the lanes in m (the others
 // zero) when the block is not full.
 template <bool Full>
@@ -312,7 +314,9 @@ PALPATE_AVX512 void all_pairs_avx512(int n, const SpringNetwork& net, double* p,
   }
 }
 
+#if !defined(__clang__)
 #pragma GCC diagnostic pop
+#endif
 
 // The uniform all-pairs forces in single precision (SpringModelOptions::single_precision) are
 // all_pairs_avx2<f8, true>: eight springs at a time, 1/l from the estimate and one Newton step

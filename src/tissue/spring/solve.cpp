@@ -2,6 +2,7 @@
 // (the step's) and column by column (the reference), and the dense inverse's products.
 #include "tissue/spring/solve.h"
 
+#include "core/simd.h"
 #include "tissue/spring/cpu.h"
 #include "tissue/spring/supernode_layout.h"
 
@@ -11,31 +12,31 @@
 #include <iterator>
 #include <type_traits>
 
-#include <immintrin.h>
-
 namespace palpate::spring {
 
 namespace {
 
-// Four doubles: one AVX register in the avx2 clone, two SSE2 registers in the default one.
-typedef double d4 __attribute__((vector_size(32)));
+// GCC vector-extension types for the portable sweeps (compiled twice, PALPATE_TWICE; the AVX-512
+// kernels below use core/simd.h). Four doubles: one AVX register in the v3 build, two SSE2 ones in
+// the default one.
+typedef double vd4 __attribute__((vector_size(32)));
 
 // Eight doubles: one AVX-512 register in the x86-64-v4 build, two AVX ones in the v3 build.
-typedef double d8 __attribute__((vector_size(64)));
-typedef float f8 __attribute__((vector_size(32)));
+typedef double vd8 __attribute__((vector_size(64)));
+typedef float vf8 __attribute__((vector_size(32)));
 
 // (Macros, not functions: no vector type crosses a function boundary, which would tie the ABI to
 // AVX.) LOAD8 widens float values to double: every accumulation is in double.
 #define PALPATE_LOAD4(v, p) \
-  d4 v;                     \
+  vd4 v;                     \
   std::memcpy(&v, (p), sizeof v)
-#define PALPATE_STORE4(p, v) std::memcpy((p), &(v), sizeof(d4))
+#define PALPATE_STORE4(p, v) std::memcpy((p), &(v), sizeof(vd4))
 #define PALPATE_LOAD8(T, v, p)                 \
-  d8 v;                                        \
+  vd8 v;                                        \
   if constexpr (std::is_same_v<T, float>) {    \
-    f8 v##_f;                                  \
+    vf8 v##_f;                                  \
     std::memcpy(&v##_f, (p), sizeof v##_f);    \
-    v = __builtin_convertvector(v##_f, d8);    \
+    v = __builtin_convertvector(v##_f, vd8);    \
   } else {                                     \
     std::memcpy(&v, (p), sizeof v);            \
   }
@@ -60,21 +61,18 @@ __attribute__((always_inline)) inline void tile_forward(const T* pan, size_t gw,
 // bx[q], by[q], bz[q] = the x, y, z of row R[q] (z4[4 R[q]] … + 2) for q < count rounded down to
 // eight, eight rows at a time with AVX-512 gathers; returns how many rows it did. (A call, not
 // inlined: the sweeps' template has no target of its own.)
-#pragma GCC diagnostic push  // GCC 12's AVX-512 gather intrinsic: see step.cpp
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-__attribute__((target("avx512f,avx2"), noinline)) size_t gather_rows_avx512(const int* R, size_t count,
-                                                                          const double* z4, double* bx,
-                                                                          double* by, double* bz) noexcept {
+__attribute__((noinline)) PALPATE_AVX512 size_t gather_rows_avx512(const int* R, size_t count, const double* z4,
+                                                                   double* bx, double* by, double* bz) noexcept {
+  using namespace simd;
   size_t q = 0;
   for (; q + 8 <= count; q += 8) {
-    const __m256i idx = _mm256_slli_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(R + q)), 2);
-    _mm512_storeu_pd(bx + q, _mm512_i32gather_pd(idx, z4, 8));
-    _mm512_storeu_pd(by + q, _mm512_i32gather_pd(idx, z4 + 1, 8));
-    _mm512_storeu_pd(bz + q, _mm512_i32gather_pd(idx, z4 + 2, 8));
+    const i8 idx = load_indices(R + q) << 2;
+    storeu(bx + q, gather(z4, idx));
+    storeu(by + q, gather(z4 + 1, idx));
+    storeu(bz + q, gather(z4 + 2, idx));
   }
   return q;
 }
-#pragma GCC diagnostic pop
 
 // Float arithmetic for a wide block on AVX-512 (the x86-64-v4 build of the float sweeps): L's
 // values are float already, so its products multiply and add in float, sixteen lanes at a time —
@@ -82,32 +80,25 @@ __attribute__((target("avx512f,avx2"), noinline)) size_t gather_rows_avx512(cons
 // widening eight values to double. Half the loads and multiply-adds of the double products;
 // rounding in float (the bound is in tests/test_spring_solve.cpp). f = (fx, fy, fz): the block's
 // padded rows in float. The diagonal tiles are solved one value at a time, as in sweeps.
-#pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see step.cpp
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#define PALPATE_F32 __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"), always_inline)) inline
-// The entries the sweeps call (calls, not inlined: the sweeps' template has no target of its own).
-#define PALPATE_F32_CALL __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"), noinline))
+// The kernels' inline helpers and the entries the sweeps call (calls, not inlined: the sweeps'
+// template has no target of its own).
+#define PALPATE_F32 [[gnu::always_inline]] PALPATE_AVX512DQ inline
+#define PALPATE_F32_CALL __attribute__((noinline)) PALPATE_AVX512DQ
 #define PALPATE_F32_LAMBDA __attribute__((target("avx512f,avx512dq,avx512vl,avx2,fma"), always_inline))
 
 // Columns 2p and 2p + 1 of a panel (16 values), or column 2p alone (the upper lanes zero) when the
 // group's width is odd and p is its last pair.
 template <bool Single>
-PALPATE_F32 __m512 pair_load(const float* pp) noexcept {
-  if constexpr (Single) return _mm512_maskz_loadu_ps(0x00FF, pp);
-  else return _mm512_loadu_ps(pp);
+PALPATE_F32 simd::f16 pair_load(const float* pp) noexcept {
+  if constexpr (Single) return simd::loadu(simd::k16(0x00FF), pp);
+  else return simd::loadu<simd::f16>(pp);
 }
 // (a, …, a, b, …, b): eight lanes each.
-PALPATE_F32 __m512 pair_broadcast(float a, float b) noexcept {
-  return _mm512_insertf32x8(_mm512_set1_ps(a), _mm256_set1_ps(b), 1);
+PALPATE_F32 simd::f16 pair_broadcast(float a, float b) noexcept {
+  return simd::concat(simd::broadcast<simd::f8>(a), simd::broadcast<simd::f8>(b));
 }
-PALPATE_F32 __m256 fold(__m512 v) noexcept {
-  return _mm256_add_ps(_mm512_castps512_ps256(v), _mm512_extractf32x8_ps(v, 1));
-}
-PALPATE_F32 float hsum8(__m256 v) noexcept {
-  const __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
-  const __m128 t = _mm_add_ps(s, _mm_movehl_ps(s, s));
-  return _mm_cvtss_f32(_mm_add_ss(t, _mm_movehdup_ps(t)));
-}
+// The two columns' sums added: low half + high half.
+PALPATE_F32 simd::f8 fold(simd::f16 v) noexcept { return simd::low(v) + simd::high(v); }
 
 // f.operator()<P, Odd>() for a group of gw columns (1 … 8): P pairs, the last a single column when
 // gw is odd — compile-time counts, so the pairs' registers are not spilled.
@@ -131,7 +122,8 @@ PALPATE_F32 void by_group_width(size_t gw, F&& f) noexcept {
 template <size_t P, bool Odd>
 PALPATE_F32 void wide_forward_panels(const float* pp, size_t gw, size_t c0, size_t row, size_t H, float* fx,
                                      float* fy, float* fz) noexcept {
-  __m512 tx[P], ty[P], tz[P];
+  using namespace simd;
+  f16 tx[P], ty[P], tz[P];
 #pragma GCC unroll 4
   for (size_t p = 0; p < P; ++p) {
     const size_t a = c0 + 2 * p, b = 2 * p + 1 < gw ? a + 1 : a;  // b's broadcast meets zeros
@@ -140,17 +132,17 @@ PALPATE_F32 void wide_forward_panels(const float* pp, size_t gw, size_t c0, size
     tz[p] = pair_broadcast(fz[a], fz[b]);
   }
   for (; row < H; row += 8, pp += 8 * gw) {
-    __m512 ax = _mm512_setzero_ps(), ay = ax, az = ax;
+    f16 ax = zero<f16>(), ay = ax, az = ax;
 #pragma GCC unroll 4
     for (size_t p = 0; p < P; ++p) {
-      const __m512 l = Odd && p + 1 == P ? pair_load<true>(pp + 16 * p) : pair_load<false>(pp + 16 * p);
-      ax = _mm512_fmadd_ps(l, tx[p], ax);
-      ay = _mm512_fmadd_ps(l, ty[p], ay);
-      az = _mm512_fmadd_ps(l, tz[p], az);
+      const f16 l = Odd && p + 1 == P ? pair_load<true>(pp + 16 * p) : pair_load<false>(pp + 16 * p);
+      ax = fma(l, tx[p], ax);
+      ay = fma(l, ty[p], ay);
+      az = fma(l, tz[p], az);
     }
-    _mm256_storeu_ps(fx + row, _mm256_sub_ps(_mm256_loadu_ps(fx + row), fold(ax)));
-    _mm256_storeu_ps(fy + row, _mm256_sub_ps(_mm256_loadu_ps(fy + row), fold(ay)));
-    _mm256_storeu_ps(fz + row, _mm256_sub_ps(_mm256_loadu_ps(fz + row), fold(az)));
+    storeu(fx + row, loadu<f8>(fx + row) - fold(ax));
+    storeu(fy + row, loadu<f8>(fy + row) - fold(ay));
+    storeu(fz + row, loadu<f8>(fz + row) - fold(az));
   }
 }
 
@@ -172,31 +164,32 @@ PALPATE_F32_CALL void wide_forward_f32(const float* V, size_t w, size_t r, float
 template <size_t P, bool Odd>
 PALPATE_F32 void wide_back_panels(const float* pp, size_t gw, size_t c0, size_t row, size_t H, float* fx,
                                   float* fy, float* fz) noexcept {
-  __m512 sx[P], sy[P], sz[P];
+  using namespace simd;
+  f16 sx[P], sy[P], sz[P];
 #pragma GCC unroll 4
-  for (size_t p = 0; p < P; ++p) sx[p] = sy[p] = sz[p] = _mm512_setzero_ps();
+  for (size_t p = 0; p < P; ++p) sx[p] = sy[p] = sz[p] = zero<f16>();
   for (; row < H; row += 8, pp += 8 * gw) {
-    const __m512 gx = _mm512_broadcast_f32x8(_mm256_loadu_ps(fx + row));
-    const __m512 gy = _mm512_broadcast_f32x8(_mm256_loadu_ps(fy + row));
-    const __m512 gz = _mm512_broadcast_f32x8(_mm256_loadu_ps(fz + row));
+    const f16 gx = twice(loadu<f8>(fx + row));
+    const f16 gy = twice(loadu<f8>(fy + row));
+    const f16 gz = twice(loadu<f8>(fz + row));
 #pragma GCC unroll 4
     for (size_t p = 0; p < P; ++p) {
-      const __m512 l = Odd && p + 1 == P ? pair_load<true>(pp + 16 * p) : pair_load<false>(pp + 16 * p);
-      sx[p] = _mm512_fmadd_ps(l, gx, sx[p]);
-      sy[p] = _mm512_fmadd_ps(l, gy, sy[p]);
-      sz[p] = _mm512_fmadd_ps(l, gz, sz[p]);
+      const f16 l = Odd && p + 1 == P ? pair_load<true>(pp + 16 * p) : pair_load<false>(pp + 16 * p);
+      sx[p] = fma(l, gx, sx[p]);
+      sy[p] = fma(l, gy, sy[p]);
+      sz[p] = fma(l, gz, sz[p]);
     }
   }
 #pragma GCC unroll 4
   for (size_t p = 0; p < P; ++p) {
     const size_t a = c0 + 2 * p;
-    fx[a] -= hsum8(_mm512_castps512_ps256(sx[p]));
-    fy[a] -= hsum8(_mm512_castps512_ps256(sy[p]));
-    fz[a] -= hsum8(_mm512_castps512_ps256(sz[p]));
+    fx[a] -= sum_tree(low(sx[p]));
+    fy[a] -= sum_tree(low(sy[p]));
+    fz[a] -= sum_tree(low(sz[p]));
     if (2 * p + 1 < gw) {
-      fx[a + 1] -= hsum8(_mm512_extractf32x8_ps(sx[p], 1));
-      fy[a + 1] -= hsum8(_mm512_extractf32x8_ps(sy[p], 1));
-      fz[a + 1] -= hsum8(_mm512_extractf32x8_ps(sz[p], 1));
+      fx[a + 1] -= sum_tree(high(sx[p]));
+      fy[a + 1] -= sum_tree(high(sy[p]));
+      fz[a + 1] -= sum_tree(high(sz[p]));
     }
   }
 }
@@ -223,20 +216,20 @@ PALPATE_F32_CALL void wide_back_f32(const float* V, size_t w, size_t r, float* f
 // The rows below of a wide block from z4 into float (x, y, z arrays), eight at a time with
 // gathers; returns how many it did (the caller does the rest).
 PALPATE_F32_CALL size_t gather_rows_f32(const int* R, size_t count, const double* z4, float* bx, float* by,
-                                   float* bz) noexcept {
+                                        float* bz) noexcept {
+  using namespace simd;
   size_t q = 0;
   for (; q + 8 <= count; q += 8) {
-    const __m256i idx = _mm256_slli_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(R + q)), 2);
-    _mm256_storeu_ps(bx + q, _mm512_cvtpd_ps(_mm512_i32gather_pd(idx, z4, 8)));
-    _mm256_storeu_ps(by + q, _mm512_cvtpd_ps(_mm512_i32gather_pd(idx, z4 + 1, 8)));
-    _mm256_storeu_ps(bz + q, _mm512_cvtpd_ps(_mm512_i32gather_pd(idx, z4 + 2, 8)));
+    const i8 idx = load_indices(R + q) << 2;
+    storeu(bx + q, to_float(gather(z4, idx)));
+    storeu(by + q, to_float(gather(z4 + 1, idx)));
+    storeu(bz + q, to_float(gather(z4 + 2, idx)));
   }
   return q;
 }
 #undef PALPATE_F32
 #undef PALPATE_F32_CALL
 #undef PALPATE_F32_LAMBDA
-#pragma GCC diagnostic pop
 
 // Forward substitution L y = b, then y ← D⁻¹ y, then back substitution Lᵀ x = y, in place on the
 // right-hand side z4, (4n): each vertex's x, y, z and a zero, so a narrow block updates the three
@@ -291,7 +284,7 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
     }
     for (size_t q = 0; q < r; ++q) {
       double* z = at(R[q]);
-      const d4 u = {ux[W + q], uy[W + q], uz[W + q], 0.0};
+      const vd4 u = {ux[W + q], uy[W + q], uz[W + q], 0.0};
       PALPATE_LOAD4(y, z);
       y += u;
       PALPATE_STORE4(z, y);
@@ -315,7 +308,7 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
           double* z = at(rr[l]);
           const double v = static_cast<double>(vv[l]);
           PALPATE_LOAD4(y, z);
-          y -= d4{v, v, v, v} * a;
+          y -= vd4{v, v, v, v} * a;
           PALPATE_STORE4(z, y);
         }
       }
@@ -337,7 +330,7 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
       tile_forward(pan, gw, gx + c0, gy + c0, gz + c0);
       const T* pp = pan + 8 * gw;
       for (size_t row = c0 + 8; row < H; row += 8, pp += 8 * gw) {
-        d8 ux, uy, uz;
+        vd8 ux, uy, uz;
         std::memcpy(&ux, gx + row, sizeof ux);
         std::memcpy(&uy, gy + row, sizeof uy);
         std::memcpy(&uz, gz + row, sizeof uz);
@@ -356,7 +349,7 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
   for (int i = 0; i < n; ++i) {
     const double d = inv_diag[i];
     PALPATE_LOAD4(y, at(i));
-    y *= d4{d, d, d, d};
+    y *= vd4{d, d, d, d};
     PALPATE_STORE4(at(i), y);
   }
   for (int k = S - 1; k >= 0; --k) {
@@ -377,8 +370,8 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
         PALPATE_LOAD4(y1, at(rr[1]));
         PALPATE_LOAD4(y2, at(rr[2]));
         PALPATE_LOAD4(y3, at(rr[3]));
-        const d4 s01 = d4{v0, v0, v0, v0} * y0 + d4{v1, v1, v1, v1} * y1;
-        const d4 s23 = d4{v2, v2, v2, v2} * y2 + d4{v3, v3, v3, v3} * y3;
+        const vd4 s01 = vd4{v0, v0, v0, v0} * y0 + vd4{v1, v1, v1, v1} * y1;
+        const vd4 s23 = vd4{v2, v2, v2, v2} * y2 + vd4{v3, v3, v3, v3} * y3;
         double* zp = at(piv[q]);
         PALPATE_LOAD4(a, zp);
         a -= s01 + s23;
@@ -424,11 +417,11 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
       const T* pan = V + sh.group_start(grp);
       // Columns [c0 + h, c0 + h + A) of the group at a time, their sums side by side in registers.
       auto columns = [&]<size_t A>(size_t h) {
-        d8 sx[A], sy[A], sz[A];
-        for (size_t c = 0; c < A; ++c) sx[c] = sy[c] = sz[c] = d8{0, 0, 0, 0, 0, 0, 0, 0};
+        vd8 sx[A], sy[A], sz[A];
+        for (size_t c = 0; c < A; ++c) sx[c] = sy[c] = sz[c] = vd8{0, 0, 0, 0, 0, 0, 0, 0};
         const T* pp = pan + 8 * gw + 8 * h;
         for (size_t row = c0 + 8; row < H; row += 8, pp += 8 * gw) {
-          d8 xb, yb, zb;
+          vd8 xb, yb, zb;
           std::memcpy(&xb, gx + row, sizeof xb);
           std::memcpy(&yb, gy + row, sizeof yb);
           std::memcpy(&zb, gz + row, sizeof zb);

@@ -2,20 +2,19 @@
 // the double or float inverse, or from the upper triangle of the symmetric double one (AVX-512).
 #include "tissue/spring/solve.h"
 
+#include "core/simd.h"
 #include "tissue/spring/cpu.h"
 
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
 
-#include <immintrin.h>
-
 namespace palpate::spring {
 
 namespace {
 
 // Four doubles: one AVX register in the x86-64-v3 build, two SSE2 registers in the default one.
-typedef double d4 __attribute__((vector_size(32)));
+typedef double vd4 __attribute__((vector_size(32)));  // GCC vector extension (portable build)
 
 // (t0, t1, t2) = Σ_j a[j] (x[j], y[j], z[j]), j < w: one read of a for the three coordinates
 // (the dense products' rows). T is the stored value type (double, or float widened to double:
@@ -25,11 +24,11 @@ __attribute__((always_inline)) inline void dot3(const T* a, const double* x, con
                                                 double& t0, double& t1, double& t2) noexcept {
   int j = 0;
   double r0 = 0, r1 = 0, r2 = 0;
-  d4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
+  vd4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
   for (; j + 4 <= w; j += 4) {
-    const d4 v = {static_cast<double>(a[j]), static_cast<double>(a[j + 1]), static_cast<double>(a[j + 2]),
+    const vd4 v = {static_cast<double>(a[j]), static_cast<double>(a[j + 1]), static_cast<double>(a[j + 2]),
                   static_cast<double>(a[j + 3])};
-    d4 vx, vy, vz;
+    vd4 vx, vy, vz;
     std::memcpy(&vx, x + j, sizeof vx);
     std::memcpy(&vy, y + j, sizeof vy);
     std::memcpy(&vz, z + j, sizeof vz);
@@ -66,27 +65,26 @@ PALPATE_TWICE(dense_single_impl,
               (const float* W, int n, const double* bx, const double* by, const double* bz, double* x),
               { dense_rows(W, n, bx, by, bz, x); })
 
-#pragma GCC diagnostic push  // GCC 12's AVX-512 intrinsics: see step.cpp
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-
 // One block of eight columns j0 … j0 + 7 of row i of the symmetric product (lanes in m read, lanes
 // in mu also update y): acc += W_ij b_j, y_j += W_ij b_i.
 template <bool Full>
-__attribute__((target("avx512f"), always_inline)) inline void dense_symmetric_block(
-    const double* w, const double* bx, const double* by, const double* bz, double* yx, double* yy, double* yz,
-    __mmask8 m, __mmask8 mu, __m512d bix, __m512d biy, __m512d biz, __m512d& ax, __m512d& ay, __m512d& az) noexcept {
-  const __m512d v = Full ? _mm512_loadu_pd(w) : _mm512_maskz_loadu_pd(m, w);
-  ax = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(bx) : _mm512_maskz_load_pd(m, bx), ax);
-  ay = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(by) : _mm512_maskz_load_pd(m, by), ay);
-  az = _mm512_fmadd_pd(v, Full ? _mm512_load_pd(bz) : _mm512_maskz_load_pd(m, bz), az);
+[[gnu::always_inline]] PALPATE_AVX512 inline void dense_symmetric_block(const double* w, const double* bx,
+                                                                       const double* by, const double* bz, double* yx,
+                                                                       double* yy, double* yz, simd::k8 m, simd::k8 mu,
+                                                                       simd::d8 bi[3], simd::d8 acc[3]) noexcept {
+  using namespace simd;
+  const d8 v = Full ? loadu<d8>(w) : loadu(m, w);
+  acc[0] = fma(v, Full ? load<d8>(bx) : load(m, bx), acc[0]);
+  acc[1] = fma(v, Full ? load<d8>(by) : load(m, by), acc[1]);
+  acc[2] = fma(v, Full ? load<d8>(bz) : load(m, bz), acc[2]);
   if (Full) {
-    _mm512_store_pd(yx, _mm512_fmadd_pd(v, bix, _mm512_load_pd(yx)));
-    _mm512_store_pd(yy, _mm512_fmadd_pd(v, biy, _mm512_load_pd(yy)));
-    _mm512_store_pd(yz, _mm512_fmadd_pd(v, biz, _mm512_load_pd(yz)));
+    store(yx, fma(v, bi[0], load<d8>(yx)));
+    store(yy, fma(v, bi[1], load<d8>(yy)));
+    store(yz, fma(v, bi[2], load<d8>(yz)));
   } else {
-    _mm512_mask_store_pd(yx, mu, _mm512_fmadd_pd(v, bix, _mm512_maskz_load_pd(mu, yx)));
-    _mm512_mask_store_pd(yy, mu, _mm512_fmadd_pd(v, biy, _mm512_maskz_load_pd(mu, yy)));
-    _mm512_mask_store_pd(yz, mu, _mm512_fmadd_pd(v, biz, _mm512_maskz_load_pd(mu, yz)));
+    store(yx, mu, fma(v, bi[0], load(mu, yx)));
+    store(yy, mu, fma(v, bi[1], load(mu, yy)));
+    store(yz, mu, fma(v, bi[2], load(mu, yz)));
   }
 }
 
@@ -95,38 +93,34 @@ __attribute__((target("avx512f"), always_inline)) inline void dense_symmetric_bl
 // all-pairs kernel's pattern). b = (bx, by, bz) and y = (yx, yy, yz, the transposed sums) are n
 // each, N apart (N a multiple of 8) from a 64-byte boundary, so their accesses are aligned blocks
 // of eight; W's rows are read unaligned. x is (n x 3) row-major.
-__attribute__((target("avx512f"))) void dense_symmetric_avx512(const double* W, int n, const double* b, double* y,
-                                                                size_t N, double* x) noexcept {
+PALPATE_AVX512 void dense_symmetric_avx512(const double* W, int n, const double* b, double* y, size_t N,
+                                           double* x) noexcept {
+  using namespace simd;
   const double *bx = b, *by = b + N, *bz = b + 2 * N;
   double *yx = y, *yy = y + N, *yz = y + 2 * N;
   std::fill(y, y + 3 * N, 0.0);
   for (int i = 0; i < n; ++i) {
     const double* w = W + static_cast<size_t>(i) * static_cast<size_t>(n);
-    const __m512d bix = _mm512_set1_pd(bx[i]), biy = _mm512_set1_pd(by[i]), biz = _mm512_set1_pd(bz[i]);
-    __m512d ax = _mm512_setzero_pd(), ay = ax, az = ax;
+    d8 bi[3] = {broadcast<d8>(bx[i]), broadcast<d8>(by[i]), broadcast<d8>(bz[i])};
+    d8 acc[3] = {zero<d8>(), zero<d8>(), zero<d8>()};
     const int j0 = i & ~7;
     const int lo = i - j0, hi = std::min(8, n - j0);
-    const __mmask8 m0 = static_cast<__mmask8>(((1u << hi) - 1) & ~((1u << lo) - 1));
-    const __mmask8 u0 = static_cast<__mmask8>(m0 & ~(1u << lo));  // not the diagonal
-    dense_symmetric_block<false>(w + j0, bx + j0, by + j0, bz + j0, yx + j0, yy + j0, yz + j0, m0, u0, bix, biy,
-                                 biz, ax, ay, az);
+    const k8 m0 = static_cast<k8>(((1u << hi) - 1) & ~((1u << lo) - 1));
+    const k8 u0 = static_cast<k8>(m0 & ~(1u << lo));  // not the diagonal
+    dense_symmetric_block<false>(w + j0, bx + j0, by + j0, bz + j0, yx + j0, yy + j0, yz + j0, m0, u0, bi, acc);
     int j = j0 + 8;
     for (; j + 8 <= n; j += 8)
-      dense_symmetric_block<true>(w + j, bx + j, by + j, bz + j, yx + j, yy + j, yz + j, 0xFF, 0xFF, bix, biy, biz,
-                                  ax, ay, az);
+      dense_symmetric_block<true>(w + j, bx + j, by + j, bz + j, yx + j, yy + j, yz + j, 0xFF, 0xFF, bi, acc);
     if (j < n) {
-      const __mmask8 m = static_cast<__mmask8>((1u << (n - j)) - 1);
-      dense_symmetric_block<false>(w + j, bx + j, by + j, bz + j, yx + j, yy + j, yz + j, m, m, bix, biy, biz, ax,
-                                   ay, az);
+      const k8 m = static_cast<k8>((1u << (n - j)) - 1);
+      dense_symmetric_block<false>(w + j, bx + j, by + j, bz + j, yx + j, yy + j, yz + j, m, m, bi, acc);
     }
     // Row i's transposed sums are complete: rows after i only update y_j for j > i.
-    x[3 * i] = _mm512_reduce_add_pd(ax) + yx[i];
-    x[3 * i + 1] = _mm512_reduce_add_pd(ay) + yy[i];
-    x[3 * i + 2] = _mm512_reduce_add_pd(az) + yz[i];
+    x[3 * i] = sum(acc[0]) + yx[i];
+    x[3 * i + 1] = sum(acc[1]) + yy[i];
+    x[3 * i + 2] = sum(acc[2]) + yz[i];
   }
 }
-
-#pragma GCC diagnostic pop
 
 void dense_double(const double* W, int n, const double* bx, const double* by, const double* bz, double* x) noexcept {
   if (has_x86_64_v3())
