@@ -12,7 +12,9 @@
 #include <cstdint>
 #include <span>
 
-namespace palpate::charged {
+// Hidden: used inside the library only, so called directly rather than through the PLT.
+namespace palpate {
+namespace charged __attribute__((visibility("hidden"))) {
 
 inline constexpr std::uint8_t kActive = 1, kQueued = 2, kReversed = 4;
 inline constexpr double kPi = 3.14159265358979323846;
@@ -180,4 +182,5 @@ void propagation(const ChargedModel& m, ChargedState& s, size_t q_head, size_t q
 // factor for all keeps every neighbour pair within max_separation (a convex combination).
 void relaxation(const ChargedModel& m, ChargedState& s, double dt) noexcept;
 
-}  // namespace palpate::charged
+}  // namespace charged
+}  // namespace palpate
