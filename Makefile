@@ -53,7 +53,7 @@ asan-test: deps
 tsan-test: deps
 	test -f build/tsan/CMakeCache.txt || cmake --preset tsan
 	cmake --build --preset tsan --target palpate_tests
-	ctest --preset tsan -E '^(embed_example|tissue_only_example)|^Layers\.'
+	ctest --preset tsan -E '^(embed_example|tissue_only_example)|^(Layers|Schema)\.'
 
 bench: build
 	$(BUILD)/bench/palpate_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true

@@ -3,6 +3,8 @@
 // the tables.
 #include "scene_fixtures.h"
 
+#include <nlohmann/json.hpp>
+
 using namespace palpate;
 using namespace scene_test;
 
@@ -382,6 +384,61 @@ TEST(SceneReference, DocContainsTheCurrentGeneratedReference) {
   ASSERT_LT(b, e);
   EXPECT_EQ(doc.substr(b + begin.size(), e - b - begin.size()), palpate::scene_reference_markdown())
       << "docs/scene-format.md is out of date: run scripts/update-scene-reference";
+}
+
+TEST(SceneReference, ShippedSchemaIsTheCurrentGeneratedOne) {
+  // data/schema/scene.schema.json is what `palpate schema` prints, from the same tables as the
+  // parser: a table changed without regenerating it fails here.
+  EXPECT_EQ(read_text(PALPATE_SOURCE_DIR "/data/schema/scene.schema.json"), palpate::scene_json_schema())
+      << "data/schema/scene.schema.json is out of date: run scripts/update-scene-reference";
+}
+
+TEST(SceneReference, SchemaStatesEveryTableKeyWithItsRangeAndDefault) {
+  // Against the tables: every key of a section is a property with its type, range, unit and
+  // default; choices are an enum; required keys are required; a Vec3 is three numbers; the
+  // material follows the tissue's model.
+  const auto schema = nlohmann::json::parse(palpate::scene_json_schema());
+  EXPECT_EQ(schema["$schema"], "https://json-schema.org/draft/2020-12/schema");
+  const auto& defs = schema["$defs"];
+  const auto& dt = schema["properties"]["dt"];
+  EXPECT_EQ(dt["type"], "number");
+  EXPECT_EQ(dt["minimum"], 1e-5);
+  EXPECT_EQ(dt["maximum"], 0.1);
+  EXPECT_EQ(dt["default"], 0.001);
+  EXPECT_EQ(dt["x-unit"], "s");
+  EXPECT_EQ(defs["tissue"]["properties"]["model"]["enum"], nlohmann::json::array({"charged_particles", "mass_spring"}));
+  EXPECT_EQ(defs["waypoint"]["required"], nlohmann::json::array({"t", "position"}));
+  EXPECT_EQ(defs["waypoint"]["properties"]["position"]["minItems"], 3);
+  EXPECT_EQ(defs["waypoint"]["properties"]["position"]["maxItems"], 3);
+  EXPECT_EQ(defs["tissue"]["if"]["properties"]["model"]["const"], "mass_spring");
+  EXPECT_EQ(defs["tissue"]["then"]["properties"]["material"]["$ref"], "#/$defs/spring_material");
+  EXPECT_EQ(defs["tissue"]["else"]["properties"]["material"]["$ref"], "#/$defs/charged_material");
+  EXPECT_EQ(defs["spring_material"]["additionalProperties"], false);
+  auto expect_table = [&](const auto* def, const nlohmann::json& props) {
+    for (const auto& p : palpate::param_table(def)) {
+      ASSERT_TRUE(props.contains(p.key)) << p.key;
+      const auto& q = props[p.key];
+      if (std::isfinite(p.min) && q["type"] == "number") {
+        EXPECT_EQ(q["minimum"], p.min) << p.key;
+      }
+      if (std::isfinite(p.max) && q["type"] == "number") {
+        EXPECT_EQ(q["maximum"], p.max) << p.key;
+      }
+      if (*p.unit) {
+        EXPECT_EQ(q["x-unit"], p.unit) << p.key;
+      }
+    }
+    size_t n = 0;
+    for (const auto& p : palpate::param_table(def)) n += p.key != nullptr;
+    EXPECT_GE(props.size(), n);
+  };
+  expect_table(static_cast<const palpate::SpringMaterialDef*>(nullptr), defs["spring_material"]["properties"]);
+  expect_table(static_cast<const palpate::ChargedMaterialDef*>(nullptr), defs["charged_material"]["properties"]);
+  expect_table(static_cast<const palpate::NeckDef*>(nullptr), defs["anatomy"]["properties"]);
+  expect_table(static_cast<const palpate::DeviceDef*>(nullptr), defs["device"]["properties"]);
+  // Defaults are the Defs' own: a spring's Poisson ratio, a patch's spacing.
+  EXPECT_EQ(defs["spring_material"]["properties"]["poisson_ratio"]["default"], palpate::SpringMaterialDef{}.poisson_ratio);
+  EXPECT_EQ(defs["patch"]["properties"]["spacing"]["default"], palpate::PatchDef{}.spacing);
 }
 
 TEST(SceneReference, DocExampleSceneParses) {

@@ -1,4 +1,4 @@
-// main.cpp — the palpate command: run, info, precompute, reference.
+// main.cpp — the palpate command: run, info, precompute, view, reference, schema.
 #include <palpate/palpate.h>
 
 #include "commands.h"
@@ -24,6 +24,9 @@ int run_main(int argc, char** argv) {
   CLI::App* ref = app.add_subcommand(
       "reference", "Print the reference of every scene-file key (type, unit, default, range)");
   ref->callback([] { fmt::print("{}", palpate::scene_reference_markdown()); });
+  CLI::App* schema = app.add_subcommand(
+      "schema", "Print the JSON Schema (draft 2020-12) of scene files, for editors and validators");
+  schema->callback([] { fmt::print("{}", palpate::scene_json_schema()); });
 
   // CLI11 reports an unknown command only as "a subcommand is required": name it instead.
   if (argc > 1 && argv[1][0] != '-') {

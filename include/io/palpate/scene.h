@@ -20,5 +20,9 @@ Result<SceneDef> parse_scene(const std::string& yaml, const std::string& name,
 
 // Markdown reference of every scene key: type, unit, range and default (from the tables).
 std::string scene_reference_markdown();
+// The JSON Schema (draft 2020-12) of a scene file, from the same tables: every key's type, unit,
+// range, choices and default, the required keys and the rules across keys the schema can state
+// (docs/scene-format.md, "Schema"). Shipped as data/schema/scene.schema.json; `palpate schema`.
+std::string scene_json_schema();
 
 }  // namespace palpate
