@@ -16,14 +16,14 @@ int info_command(const std::string& file, double scale) {
     auto m = load_tet(file, scale);
     if (!m) {
       fmt::print(stderr, "palpate info: {}\n", m.error().message);
-      return 2;
+      return kExitFailed;
     }
     info = describe(*m);
   } else {
     auto m = load_surface(file, scale);
     if (!m) {
       fmt::print(stderr, "palpate info: {}\n", m.error().message);
-      return 2;
+      return kExitFailed;
     }
     info = describe(*m);
   }

@@ -76,7 +76,7 @@ int precompute_command(const PrecomputeArgs& a) {
     auto scene = load_scene(input);
     if (!scene) {
       fmt::print(stderr, "palpate precompute: {}\n", scene.error().message);
-      return 2;
+      return kExitFailed;
     }
     int done = 0, rc = 0;
     for (size_t i = 0; i < scene->tissues.size(); ++i) {
@@ -86,7 +86,7 @@ int precompute_command(const PrecomputeArgs& a) {
                                 file_tissue_services(a.cache.empty() ? default_predictor_cache() : std::filesystem::path(a.cache)));
       if (!setup) {
         fmt::print(stderr, "palpate precompute: {}\n", setup.error().message);
-        return 2;
+        return kExitFailed;
       }
       if (setup->options.solver == SpringSolver::exact) {
         fmt::print(stderr, "palpate precompute: tissue '{}' uses the exact solver, which has no predictor\n", t.name);
@@ -97,7 +97,7 @@ int precompute_command(const PrecomputeArgs& a) {
       if (!a.out.empty() && done > 0) {
         fmt::print(stderr, "palpate precompute: -o names one file but the scene has several mass_spring tissues; "
                            "use --tissue NAME\n");
-        return 2;
+        return kExitUsage;
       }
       rc |= write_one(t.name, std::move(setup->network), setup->options, file, a);
       ++done;
@@ -105,7 +105,7 @@ int precompute_command(const PrecomputeArgs& a) {
     if (done == 0) {
       fmt::print(stderr, "palpate precompute: {}: no mass_spring tissue{}\n", input.string(),
                  a.tissue.empty() ? "" : " named '" + a.tissue + "'");
-      return 2;
+      return kExitFailed;
     }
     return rc;
   }
@@ -119,12 +119,12 @@ int precompute_command(const PrecomputeArgs& a) {
   auto net_opt = network_options(m, a.anchors, input.string());
   if (!net_opt) {
     fmt::print(stderr, "palpate precompute: {}\n", net_opt.error().message);
-    return 2;
+    return kExitUsage;
   }
   auto solver = parse_solver(a.solver, "--solver");
   if (!solver || *solver == SpringSolver::exact) {
     fmt::print(stderr, "palpate precompute: --solver must be desbrun or sparse\n");
-    return 2;
+    return kExitUsage;
   }
   MeshRef ref;
   ref.file = input;
@@ -132,7 +132,7 @@ int precompute_command(const PrecomputeArgs& a) {
   auto net = spring_network_from_file(ref, *net_opt);
   if (!net) {
     fmt::print(stderr, "palpate precompute: {}\n", net.error().message);
-    return 2;
+    return kExitFailed;
   }
   SpringModelOptions o;
   o.dt = a.dt;

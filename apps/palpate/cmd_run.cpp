@@ -72,7 +72,7 @@ int run_command(const RunArgs& a) {
   auto scene = load_scene(a.scene);
   if (!scene) {
     fmt::print(stderr, "palpate run: {}\n", scene.error().message);
-    return 2;
+    return kExitFailed;
   }
   if (!a.device.empty()) scene->device.kind = a.device;
   if (!a.recording.empty()) {
@@ -83,7 +83,7 @@ int run_command(const RunArgs& a) {
   // The anatomy's layers generated now (the run would do it too), so every tissue is counted below.
   if (auto expanded = expand_anatomy(*scene); !expanded) {
     fmt::print(stderr, "palpate run: {}\n", expanded.error().message);
-    return 2;
+    return kExitFailed;
   } else {
     *scene = std::move(*expanded);
   }

@@ -37,13 +37,13 @@ int view_command(ViewArgs& args) {
   auto scene = load_scene(args.scene);
   if (!scene) {
     fmt::print(stderr, "palpate view: {}\n", scene.error().message);
-    return 2;
+    return kExitFailed;
   }
   if (!args.probe.empty()) {
     auto p = parse_probe(args.probe);
     if (!p) {
       fmt::print(stderr, "palpate view: {}\n", p.error().message);
-      return 2;
+      return kExitUsage;
     }
     args.options.probe = *p;
   }

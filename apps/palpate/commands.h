@@ -1,6 +1,8 @@
 // commands.h — each subcommand of `palpate` registers itself on the CLI11 app.
 #pragma once
 
+#include "exit_codes.h"
+
 #include <CLI/CLI.hpp>
 
 namespace palpate::cli {

@@ -39,11 +39,26 @@ int run_main(int argc, char** argv) {
     if (!known) {
       fmt::print(stderr, "palpate: unknown command '{}' (commands: {}; see palpate --help)\n",
                  argv[1], names);
-      return 2;
+      return palpate::cli::kExitUsage;
     }
   }
-  CLI11_PARSE(app, argc, argv);
-  return 0;
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::RuntimeError& e) {
+    return e.get_exit_code();  // a command's own status (each command's callback throws it)
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);  // prints the help; 0
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    // CLI11's own codes (104–114) are internal: a wrong command line is a usage error, 2, after
+    // CLI11's message (which names the option and what it expected).
+    app.exit(e);
+    return palpate::cli::kExitUsage;
+  }
+  return palpate::cli::kExitOk;
 }
 
 }  // namespace
@@ -58,6 +73,6 @@ int main(int argc, char** argv) {
                "ulimit -v) gives; make it smaller (a coarser spacing, fewer waypoints, a shorter "
                "duration) and run again\n",
                stderr);
-    return 3;
+    return palpate::cli::kExitOutOfMemory;
   }
 }

@@ -3,6 +3,8 @@
 // What is drawn: viewer_scene.cpp; the ImGui panels: viewer_panels.cpp.
 #include "viewer_impl.h"
 
+#include "../exit_codes.h"
+
 namespace palpate::view {
 namespace detail {
 
@@ -26,14 +28,14 @@ Viewer::~Viewer() {
 int Viewer::build_simulation() {
   if (scene_.tissues.empty() && !scene_.anatomy) {
     fmt::print(stderr, "palpate view: {}: the scene has no tissues to show\n", scene_.file.string());
-    return 2;
+    return cli::kExitFailed;
   }
   device_ = std::make_unique<VirtualDevice>(device_limits(scene_.device));
   if (scene_.probe && scene_.anatomy) probe_device_ = std::make_unique<VirtualDevice>(device_limits(scene_.probe->device));
   auto sim = Simulation::build(scene_, view_simulation_options(options_, device_.get(), probe_device_.get()));
   if (!sim) {
     fmt::print(stderr, "palpate view: {}\n", sim.error().message);
-    return 2;
+    return cli::kExitFailed;
   }
   sim_ = std::move(*sim);
   scene_ = sim_->scene();  // with the anatomy's layers generated: the panels edit every tissue
@@ -347,7 +349,7 @@ int Viewer::run() {
   std::string error;
   if (!init_window(error)) {
     fmt::print(stderr, "palpate view: {}\n", error);
-    return 3;
+    return cli::kExitFailed;
   }
   if (Status st = start_loop(); !st) {
     fmt::print(stderr, "palpate view: the haptic loop did not start: {}\n", st.error().message);
