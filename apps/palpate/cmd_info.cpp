@@ -5,12 +5,37 @@
 #include "commands.h"
 
 #include <fmt/core.h>
+#include <nlohmann/json.hpp>
 
 namespace palpate::cli {
 
 namespace {
 
-int info_command(const std::string& file, double scale) {
+// The same figures as one JSON object (SI lengths after --scale), for scripts.
+void print_json(const std::string& file, const MeshInfo& info) {
+  auto vec = [](const Vec3& v) { return nlohmann::ordered_json::array({v.x(), v.y(), v.z()}); };
+  nlohmann::ordered_json j;
+  j["file"] = file;
+  j["kind"] = info.kind;
+  j["vertices"] = info.vertices;
+  j["triangles"] = info.triangles;
+  if (info.kind == "tetrahedral") j["tetrahedra"] = info.tetrahedra;
+  j["bbox_min"] = vec(info.bbox_min);
+  j["bbox_max"] = vec(info.bbox_max);
+  j["size"] = vec(info.bbox_max - info.bbox_min);
+  j["closed"] = info.closed;
+  j["boundary_edges"] = info.boundary_edges;
+  j["manifold"] = info.manifold;
+  j["non_manifold_edges"] = info.non_manifold_edges;
+  // The volume is the tetrahedra's sum or the enclosed one; none for an open surface.
+  if (info.kind == "tetrahedral" || info.closed) j["volume"] = info.volume;
+  else j["volume"] = nullptr;
+  j["edges"] = {{"count", info.edges.count}, {"min", info.edges.min}, {"mean", info.edges.mean},
+                {"median", info.edges.median}, {"max", info.edges.max}};
+  fmt::print("{}\n", j.dump(2));
+}
+
+int info_command(const std::string& file, double scale, bool json) {
   MeshInfo info;
   if (is_tet_file(file)) {
     auto m = load_tet(file, scale);
@@ -26,6 +51,10 @@ int info_command(const std::string& file, double scale) {
       return kExitFailed;
     }
     info = describe(*m);
+  }
+  if (json) {
+    print_json(file, info);
+    return kExitOk;
   }
   fmt::print("file        {}\n", file);
   fmt::print("kind        {}\n", info.kind);
@@ -61,7 +90,9 @@ void add_info_command(CLI::App& app) {
   info->add_option("file", *file, "Mesh file: OBJ, STL, PLY, OFF, Gmsh .msh, TetGen .node/.ele, VTK")
       ->required()->check(CLI::ExistingFile);
   info->add_option("--scale", *scale, "Multiply coordinates by this factor")->check(CLI::PositiveNumber);
-  info->callback([file, scale] { throw CLI::RuntimeError(info_command(*file, *scale)); });
+  auto json = std::make_shared<bool>(false);
+  info->add_flag("--json", *json, "Print the figures as one JSON object");
+  info->callback([file, scale, json] { throw CLI::RuntimeError(info_command(*file, *scale, *json)); });
 }
 
 }  // namespace palpate::cli

@@ -244,3 +244,45 @@ TEST(Cli, ARunWhosePlotsCouldNotBeWrittenExitsNonZero) {
   EXPECT_TRUE(std::filesystem::exists(out / "summary.json"));
   std::filesystem::remove_all(out);
 }
+
+// `palpate doctor`: every check a line, a failure or warning followed by what to do, exit 1 only
+// when something a run needs fails (README, "Exit statuses").
+TEST(Cli, DoctorChecksWhatALabNeedsAndSaysWhatToDo) {
+  // Without the vendor's library: a warning with the way to install or point at it; exit 0.
+  Ran r = run("doctor --hd-library libHD-nonexistent.so");
+  EXPECT_EQ(r.code, 0) << r.out;
+  for (const char* line : {"ok   cpu ", " vector units ", " realtime ", " locked memory ", "warn openhaptics ",
+                           " forcedimension ", " display ", " gnuplot ", " cache "})
+    EXPECT_NE(r.out.find(line), std::string::npos) << line << "\n" << r.out;
+  EXPECT_NE(r.out.find("libHD-nonexistent.so"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("-> install OpenHaptics"), std::string::npos) << r.out;
+  // The test's stand-in libHD.so: found at its path, and the device opens and reports a pose.
+  r = run(std::string("doctor --hd-library ") + PALPATE_FAKE_HD);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find(std::string("ok   openhaptics    found ") + PALPATE_FAKE_HD), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("the default HD device opens; stylus at"), std::string::npos) << r.out;
+  // A predictor cache that cannot be written fails the check: exit 1, with the way out.
+  r = palpate::test::shell_run("XDG_CACHE_HOME=/proc/palpate-no-such-dir " + std::string(PALPATE_CLI) +
+                               " doctor --no-device-open 2>&1");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("FAIL cache"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("-> make it writable, or pass --cache DIR"), std::string::npos) << r.out;
+}
+
+TEST(Cli, InfoJsonGivesTheSameFiguresAsText) {
+  const std::string mesh = std::string(PALPATE_DATA_DIR) + "/meshes/liver.msh";
+  const Ran text = run("info " + mesh);
+  const Ran json = run("info --json " + mesh);
+  ASSERT_EQ(json.code, 0) << json.out;
+  ASSERT_EQ(text.code, 0) << text.out;
+  auto field = [&](const std::string& key) {
+    const size_t at = json.out.find("\"" + key + "\": ");
+    EXPECT_NE(at, std::string::npos) << key << "\n" << json.out;
+    return at == std::string::npos ? std::string() : json.out.substr(at + key.size() + 4, json.out.find_first_of(",\n", at) - at - key.size() - 4);
+  };
+  EXPECT_EQ(field("kind"), "\"tetrahedral\"");
+  EXPECT_NE(text.out.find("vertices    " + field("vertices") + "\n"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("tetrahedra  " + field("tetrahedra") + "\n"), std::string::npos) << text.out;
+  EXPECT_EQ(field("closed"), "true");
+  EXPECT_EQ(json.out.front(), '{');
+}
