@@ -32,13 +32,15 @@ namespace {
 enum class Verdict { ok, warn, fail };
 
 struct Report {
+  bool quiet = false;  // only what failed or warns
   int failures = 0, warnings = 0;
   void line(Verdict v, const std::string& what, const std::string& detail, const std::string& todo = {}) {
+    failures += v == Verdict::fail;
+    warnings += v == Verdict::warn;
+    if (quiet && v == Verdict::ok) return;
     const char* tag = v == Verdict::ok ? "ok  " : v == Verdict::warn ? "warn" : "FAIL";
     fmt::print("{} {:<14} {}\n", tag, what, detail);
     if (v != Verdict::ok && !todo.empty()) fmt::print("     {:<14} -> {}\n", "", todo);
-    failures += v == Verdict::fail;
-    warnings += v == Verdict::warn;
   }
 };
 
@@ -90,11 +92,13 @@ bool on_path(const std::string& program) {
 struct DoctorArgs {
   std::string hd_library = DeviceDef{}.hd_library;
   bool open_device = true;
+  bool quiet = false, verbose = false;
 };
 
 int doctor_command(const DoctorArgs& a) {
   Report r;
-  fmt::print("palpate {}\n", version());
+  r.quiet = a.quiet;
+  if (!a.quiet) fmt::print("palpate {}\n", version());
 
   // The CPU and the kernels palpate picks on it (docs/models/mass-spring.md).
   const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
@@ -191,7 +195,7 @@ int doctor_command(const DoctorArgs& a) {
            fmt::format("{} {}", cache.string(), writable ? "(writable)" : "cannot be written"),
            "make it writable, or pass --cache DIR to run, view and precompute");
   }
-  fmt::print("{} failed, {} warnings\n", r.failures, r.warnings);
+  if (!a.quiet || r.failures + r.warnings > 0) fmt::print("{} failed, {} warnings\n", r.failures, r.warnings);
   return r.failures > 0 ? kExitFailed : kExitOk;
 }
 
@@ -205,6 +209,7 @@ void add_doctor_command(CLI::App& app) {
   c->add_option("--hd-library", args->hd_library, "The OpenHaptics HD library to look for (file name or path)")
       ->capture_default_str();
   c->add_flag("!--no-device-open", args->open_device, "Only look for the libraries; do not open the device");
+  add_output_flags(c, args->quiet, args->verbose);  // --verbose: every check is printed already
   c->callback([args] { throw CLI::RuntimeError(doctor_command(*args)); });
 }
 

@@ -7,6 +7,8 @@
 #include <fmt/core.h>
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
+
 namespace palpate::cli {
 
 namespace {
@@ -35,7 +37,15 @@ void print_json(const std::string& file, const MeshInfo& info) {
   fmt::print("{}\n", j.dump(2));
 }
 
-int info_command(const std::string& file, double scale, bool json) {
+struct InfoArgs {
+  std::string file;
+  double scale = 1.0;
+  bool json = false, quiet = false, verbose = false;
+};
+
+int info_command(const InfoArgs& a) {
+  const std::string& file = a.file;
+  const double scale = a.scale;
   MeshInfo info;
   if (is_tet_file(file)) {
     auto m = load_tet(file, scale);
@@ -52,10 +62,14 @@ int info_command(const std::string& file, double scale, bool json) {
     }
     info = describe(*m);
   }
-  if (json) {
+  if (a.quiet) return kExitOk;  // the exit status says whether the mesh loads
+  if (a.json) {
     print_json(file, info);
     return kExitOk;
   }
+  if (a.verbose)
+    fmt::print("loaded      {} ({} reader)\n", std::filesystem::absolute(file).string(),
+               is_tet_file(file) ? "tetrahedral" : "surface");
   fmt::print("file        {}\n", file);
   fmt::print("kind        {}\n", info.kind);
   fmt::print("vertices    {}\n", info.vertices);
@@ -84,15 +98,14 @@ int info_command(const std::string& file, double scale, bool json) {
 }  // namespace
 
 void add_info_command(CLI::App& app) {
-  auto file = std::make_shared<std::string>();
-  auto scale = std::make_shared<double>(1.0);
+  auto a = std::make_shared<InfoArgs>();
   CLI::App* info = app.add_subcommand("info", "Describe a mesh: counts, bounding box, closed/manifold, volume, edge lengths");
-  info->add_option("file", *file, "Mesh file: OBJ, STL, PLY, OFF, Gmsh .msh, TetGen .node/.ele, VTK")
+  info->add_option("file", a->file, "Mesh file: OBJ, STL, PLY, OFF, Gmsh .msh, TetGen .node/.ele, VTK")
       ->required()->check(CLI::ExistingFile);
-  info->add_option("--scale", *scale, "Multiply coordinates by this factor")->check(CLI::PositiveNumber);
-  auto json = std::make_shared<bool>(false);
-  info->add_flag("--json", *json, "Print the figures as one JSON object");
-  info->callback([file, scale, json] { throw CLI::RuntimeError(info_command(*file, *scale, *json)); });
+  info->add_option("--scale", a->scale, "Multiply coordinates by this factor")->check(CLI::PositiveNumber);
+  info->add_flag("--json", a->json, "Print the figures as one JSON object");
+  add_output_flags(info, a->quiet, a->verbose);
+  info->callback([a] { throw CLI::RuntimeError(info_command(*a)); });
 }
 
 }  // namespace palpate::cli

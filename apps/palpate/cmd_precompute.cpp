@@ -28,6 +28,7 @@ struct PrecomputeArgs {
   double mass = 0.1, density = 0.0, scale = 1.0;
   std::vector<int> anchors;
   bool quiet = false;
+  bool verbose = false;
 };
 
 bool is_scene(const std::filesystem::path& p) {
@@ -78,6 +79,7 @@ int precompute_command(const PrecomputeArgs& a) {
       fmt::print(stderr, "palpate precompute: {}\n", scene.error().message);
       return kExitFailed;
     }
+    if (a.verbose) print_scene_inputs(*scene, a.cache);
     int done = 0, rc = 0;
     for (size_t i = 0; i < scene->tissues.size(); ++i) {
       const TissueDef& t = scene->tissues[i];
@@ -126,6 +128,7 @@ int precompute_command(const PrecomputeArgs& a) {
     fmt::print(stderr, "palpate precompute: --solver must be desbrun or sparse\n");
     return kExitUsage;
   }
+  if (a.verbose) fmt::print("loaded     mesh {} (scale {})\n", std::filesystem::absolute(input).string(), a.scale);
   MeshRef ref;
   ref.file = input;
   ref.scale = a.scale;
@@ -166,7 +169,7 @@ void add_precompute_command(CLI::App& app) {
   c->add_option("--density", a->density, "Mesh: kg/m³; > 0 lumps masses from volume")->check(CLI::Range(0.0, 1e5));
   c->add_option("--scale", a->scale, "Mesh: multiplies coordinates (to metres)")->check(CLI::Range(1e-9, 1e9));
   c->add_option("--anchors", a->anchors, "Mesh: fixed vertex indices")->delimiter(',');
-  c->add_flag("--quiet,-q", a->quiet, "Print nothing but errors");
+  add_output_flags(c, a->quiet, a->verbose);
   c->callback([a] { throw CLI::RuntimeError(precompute_command(*a)); });
 }
 

@@ -15,7 +15,6 @@
 
 namespace palpate::cli {
 
-bool stderr_is_terminal() { return ::isatty(STDERR_FILENO) == 1; }
 
 namespace {
 
@@ -58,6 +57,7 @@ struct RunArgs {
   std::string out;
   std::string cache;
   bool quiet = false;
+  bool verbose = false;
   bool realtime = false;
   std::string device;       // overrides device.kind
   std::string recording;    // overrides device.recording (replay)
@@ -112,6 +112,7 @@ int run_command(const RunArgs& a) {
     fmt::print(stderr, "palpate run: {} ticks: run.csv about {:.2g} GB, and {:.2g} GB for the plots' series "
                "in a temporary file beside it while the run lasts\n", ticks, fp.csv_bytes * 1e-9, fp.series_bytes * 1e-9);
   }
+  if (a.verbose) print_scene_inputs(*scene, opt.cache);
   opt.interrupt = &g_interrupt;
   auto result = [&] {
     InterruptHandler on_signal;
@@ -131,6 +132,11 @@ int run_command(const RunArgs& a) {
     for (size_t i = 0; i < kTickStageCount; ++i)
       stages += fmt::format("{}{} {:.2f}", i ? ", " : "", tick_stage_name(TickStage(i)), s.stages[i].median * 1e6);
     fmt::print("stages     median us: {}\n", stages);
+    if (a.verbose)
+      for (size_t i = 0; i < kTickStageCount; ++i)
+        fmt::print("stage      {:<16} median {:8.2f} us, p99 {:8.2f} us, max {:8.2f} us\n",
+                   tick_stage_name(TickStage(i)), s.stages[i].median * 1e6, s.stages[i].p99 * 1e6,
+                   s.stages[i].max * 1e6);
     if (s.realtime)
       fmt::print("period     median {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms; {} deadline misses\n",
                  s.period.median * 1e3, s.period.p99 * 1e3, s.period.max * 1e3, s.deadline_misses);
@@ -221,7 +227,7 @@ void add_run_command(CLI::App& app) {
       ->required()->check(CLI::ExistingFile);
   run->add_option("--out,-o", args->out, "Output directory (default: the scene's `output`)");
   run->add_option("--cache", args->cache, "Folder for the predictors a scene does not name (default: $XDG_CACHE_HOME/palpate/predictors or ~/.cache/palpate/predictors)");
-  run->add_flag("--quiet,-q", args->quiet, "Print nothing but errors");
+  add_output_flags(run, args->quiet, args->verbose);
   run->add_flag("--realtime", args->realtime,
                 "Pace the run by the wall clock on a 1 kHz haptic thread (same outputs, plus period "
                 "and deadline-miss statistics)");

@@ -17,6 +17,7 @@ namespace {
 
 struct ViewArgs {
   std::string scene;
+  bool verbose = false;
   std::string probe;  // "x,y,depth"
   view::ViewerOptions options;
 };
@@ -39,6 +40,7 @@ int view_command(ViewArgs& args) {
     fmt::print(stderr, "palpate view: {}\n", scene.error().message);
     return kExitFailed;
   }
+  if (args.verbose) print_scene_inputs(*scene, args.options.cache);
   if (!args.probe.empty()) {
     auto p = parse_probe(args.probe);
     if (!p) {
@@ -83,6 +85,7 @@ void add_view_command(CLI::App& app) {
   view->add_option("--settle", args->options.settle, "With --probe and --exit: s to hold still (wall and simulated time, no tick zeroed by the safety filter) before the screenshot")
       ->check(CLI::Range(0.0, 60.0));
   view->add_flag("!--no-panels", args->options.panels, "Hide the ImGui panels");
+  add_output_flags(view, args->options.quiet, args->verbose);
   view->callback([args] { throw CLI::RuntimeError(view_command(*args)); });
 }
 

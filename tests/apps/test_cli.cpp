@@ -286,3 +286,44 @@ TEST(Cli, InfoJsonGivesTheSameFiguresAsText) {
   EXPECT_EQ(field("closed"), "true");
   EXPECT_EQ(json.out.front(), '{');
 }
+
+// Every command has --quiet (errors only) and --verbose (what was loaded from where, each stage's
+// timing); the two exclude each other (a usage error).
+TEST(Cli, VerboseSaysWhatWasLoadedFromWhereAndQuietPrintsNothingButErrors) {
+  namespace fs = std::filesystem;
+  const fs::path out = fs::temp_directory_path() / "palpate_test_cli_verbose";
+  const std::string probe = std::string(PALPATE_DATA_DIR) + "/scenes/probe.yaml";
+  Ran r = run("run -v " + probe + " -o " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("loaded     scene " + fs::absolute(probe).lexically_normal().string()), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("loaded     tool device: scripted, 5 waypoints"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("loaded     tissue patch (charged_particles, tissue): flat patch"), std::string::npos) << r.out;
+  for (const char* stage : {"read_devices", "step_tissues", "render_forces", "watchdog", "safety_and_write", "record",
+                            "live_figures"})
+    EXPECT_NE(r.out.find(std::string("stage      ") + stage), std::string::npos) << stage << "\n" << r.out;
+  // A mass-spring tissue's predictor: where it comes from.
+  r = run(std::string("run -v ") + PALPATE_DATA_DIR + "/scenes/liver-springs.yaml -o " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("loaded     tissue liver (mass_spring, tissue): mesh "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("predictor from the cache "), std::string::npos) << r.out;
+  // Quiet: nothing on standard output for a good run, a good mesh or a healthy doctor's ok lines.
+  r = palpate::test::shell_run(std::string(PALPATE_CLI) + " run -q " + probe + " -o " + out.string() + " 2>/dev/null");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_EQ(r.out, "");
+  r = palpate::test::shell_run(std::string(PALPATE_CLI) + " info -q " + PALPATE_DATA_DIR + "/meshes/liver.msh");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_EQ(r.out, "");
+  r = palpate::test::shell_run(std::string(PALPATE_CLI) + " doctor -q --no-device-open --hd-library " + PALPATE_FAKE_HD);
+  EXPECT_EQ(r.out.find("ok   "), std::string::npos) << r.out;
+  // ... but the error still: a refused mesh, named.
+  r = run(std::string("info -q ") + PALPATE_SOURCE_DIR + "/tests/data/scenes/broken/vec3.yaml");
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("vec3.yaml"), std::string::npos) << r.out;
+  // Both at once: a usage error.
+  for (const char* command : {"run", "view", "precompute", "info", "doctor"}) {
+    r = run(std::string(command) + " -q -v " + probe);
+    EXPECT_EQ(r.code, 2) << command << "\n" << r.out;
+    EXPECT_NE(r.out.find("excludes"), std::string::npos) << command << "\n" << r.out;
+  }
+  fs::remove_all(out);
+}

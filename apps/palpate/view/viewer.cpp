@@ -426,6 +426,21 @@ int Viewer::run() {
     }
   }
   force_ = device_->force();
+  if (!options_.quiet) report_exit(frames);
+  std::fflush(stdout);
+  stop_loop();
+  return code;
+}
+
+}  // namespace detail
+
+int run_viewer(const SceneDef& scene, const ViewerOptions& options) {
+  detail::Viewer viewer(scene, options);
+  return viewer.run();
+}
+
+// What the run ended with, on standard output (docs/viewer.md: the tests read these lines).
+void detail::Viewer::report_exit(int frames) {
   fmt::print("frames: {}\n", frames);
   fmt::print("force_N: {:.6f}\n", force_.norm());
   fmt::print("force: {:.6f} {:.6f} {:.6f}\n", force_.x(), force_.y(), force_.z());
@@ -451,16 +466,6 @@ int Viewer::run() {
     fmt::print("probe_force_N: {:.6f}\n", probe_device_->force().norm());
     fmt::print("ultrasound_images: {} rendered, {} shown\n", us_feed_ ? us_feed_->rendered() : 0, us_shown_);
   }
-  std::fflush(stdout);
-  stop_loop();
-  return code;
-}
-
-}  // namespace detail
-
-int run_viewer(const SceneDef& scene, const ViewerOptions& options) {
-  detail::Viewer viewer(scene, options);
-  return viewer.run();
 }
 
 }  // namespace palpate::view

@@ -24,6 +24,7 @@ struct ViewerOptions {
   std::filesystem::path cache;       // predictor cache; "" = default_predictor_cache()
   std::optional<ProbeRequest> probe; // press the tool in at start
   int width = 0, height = 0;         // window size in pixels; 0 = the scene camera's
+  bool quiet = false;                // print nothing but errors (no exit report)
   double overrun_margin = -1;        // s, the haptic watchdog's margin; < 0 = the scene's device.overrun_margin
   double tool_speed = 0.05;          // m/s, fastest the mouse moves the virtual device
   int resolution = 6;                // drawn surface: segments per Bézier patch edge

@@ -91,6 +91,7 @@ class Viewer {
   Viewer(const SceneDef& scene, const ViewerOptions& options) : scene_(scene), options_(options) {}
   ~Viewer();
   int run();
+  void report_exit(int frames);  // the exit report on standard output (with --exit)
 
  private:
   int build_simulation();  // the mouse's devices, then the scene's Simulation over them
