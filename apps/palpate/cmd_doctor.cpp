@@ -208,7 +208,8 @@ void add_doctor_command(CLI::App& app) {
                 "whether the device opens, a display, gnuplot, the predictor cache");
   c->add_option("--hd-library", args->hd_library, "The OpenHaptics HD library to look for (file name or path)")
       ->capture_default_str();
-  c->add_flag("!--no-device-open", args->open_device, "Only look for the libraries; do not open the device");
+  c->add_flag_callback("--no-device-open", [args] { args->open_device = false; },
+                       "Only look for the libraries; do not open the device");
   add_output_flags(c, args->quiet, args->verbose);  // --verbose: every check is printed already
   c->callback([args] { throw CLI::RuntimeError(doctor_command(*args)); });
 }

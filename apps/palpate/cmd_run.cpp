@@ -65,6 +65,7 @@ struct RunArgs {
   double physics_rate = 0;  // Hz; > 0 steps every tissue on its own thread at this rate
   int frames = 0;
   int ultrasound = 0;
+  std::vector<double> frame_times, ultrasound_times;  // s; instead of the counts
   FrameOptions frame;
 };
 
@@ -95,6 +96,8 @@ int run_command(const RunArgs& a) {
   if (a.physics_rate > 0) opt.physics_dt.assign(scene->tissues.size(), 1.0 / a.physics_rate);
   opt.frames = a.frames;
   opt.ultrasound = a.ultrasound;
+  opt.frame_times = a.frame_times;
+  opt.ultrasound_times = a.ultrasound_times;
   opt.frame_options = a.frame;
   const bool bar = !a.quiet && stderr_is_terminal();
   if (bar) {
@@ -249,6 +252,14 @@ void add_run_command(CLI::App& app) {
                   "Write N ultrasound images (us_000.png, ...) of the plane under the scene's probe, "
                   "evenly spaced over the run as --frames are (needs a 'probe' in the scene)")
       ->check(CLI::NonNegativeNumber);
+  CLI::Option* ft = run->add_option("--frame-times", args->frame_times,
+                                    "Frames at these times instead (s, comma-separated, ascending), e.g. 0.5,2,7.25")
+                        ->delimiter(',');
+  CLI::Option* ut = run->add_option("--ultrasound-times", args->ultrasound_times,
+                                    "Ultrasound images at these times instead (s, comma-separated, ascending)")
+                        ->delimiter(',');
+  ft->excludes("--frames");
+  ut->excludes("--ultrasound");
   run->add_flag("--frame-particles", args->frame.particles, "Frames: draw the particles / masses");
   run->add_flag("--frame-links", args->frame.links, "Frames: draw neighbour links / springs");
   run->add_option("--frame-resolution", args->frame.resolution,

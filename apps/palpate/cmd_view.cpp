@@ -84,7 +84,8 @@ void add_view_command(CLI::App& app) {
       ->check(CLI::Range(0.0, 1.0));
   view->add_option("--settle", args->options.settle, "With --probe and --exit: s to hold still (wall and simulated time, no tick zeroed by the safety filter) before the screenshot")
       ->check(CLI::Range(0.0, 60.0));
-  view->add_flag("!--no-panels", args->options.panels, "Hide the ImGui panels");
+  // A callback, not "!--no-panels" bound to the bool: CLI11 would print that one's value ({false}) in --help.
+  view->add_flag_callback("--no-panels", [args] { args->options.panels = false; }, "Hide the ImGui panels");
   add_output_flags(view, args->options.quiet, args->verbose);
   view->callback([args] { throw CLI::RuntimeError(view_command(*args)); });
 }

@@ -118,9 +118,46 @@ SimulationOptions run_simulation_options(const SceneDef& scene, const RunOptions
   // scene's `vein` tissue hands its particles over the same way.
   bool vein = scene.anatomy.has_value();  // the neck's ijv
   for (const TissueDef& t : scene.tissues) vein = vein || t.role == "vein";
-  so.snapshots = options.frames > 0 || (options.ultrasound > 0 && vein);
+  so.snapshots = options.frames > 0 || !options.frame_times.empty() ||
+                 ((options.ultrasound > 0 || !options.ultrasound_times.empty()) && vein);
   return so;
 }
+
+namespace {
+
+// The ticks after which images 0 … n − 1 are taken: at `times` (s) when given — each the tick that
+// ends nearest it, at least the first — else `count` evenly spaced, the first after the first tick
+// and the last at the end. An error naming `what` for a time outside the run, out of order, or on
+// the tick of the one before.
+Result<std::vector<std::uint64_t>> image_ticks(int count, const std::vector<double>& times, std::uint64_t ticks,
+                                               double dt, const std::string& where, const std::string& what,
+                                               const std::string& times_key) {
+  std::vector<std::uint64_t> out;
+  if (times.empty()) {
+    if (count < 0 || std::uint64_t(count) > ticks)
+      return Error{where + ": " + what + " must be between 0 and the run's " + std::to_string(ticks) + " ticks, not " +
+                   std::to_string(count)};
+    const auto n = static_cast<size_t>(count);
+    for (size_t k = 0; k < n; ++k)
+      out.push_back(n == 1 ? ticks : 1 + static_cast<std::uint64_t>(std::llround(double(k) * double(ticks - 1) / double(n - 1))));
+    return out;
+  }
+  const double end = double(ticks) * dt;
+  for (size_t k = 0; k < times.size(); ++k) {
+    const double t = times[k];
+    if (!std::isfinite(t) || t < 0 || t > end + 0.5 * dt)
+      return Error{where + ": " + times_key + ": " + fmt::format("{}", t) + " s is outside the run (0 to " +
+                   fmt::format("{}", end) + " s)"};
+    const auto tick = std::clamp<std::uint64_t>(static_cast<std::uint64_t>(std::llround(t / dt)), 1, ticks);
+    if (!out.empty() && tick <= out.back())
+      return Error{where + ": " + times_key + ": expected ascending times, each on a tick of its own: " +
+                   fmt::format("{}", t) + " s comes at or before " + fmt::format("{}", times[k - 1]) + " s's tick"};
+    out.push_back(tick);
+  }
+  return out;
+}
+
+}  // namespace
 
 Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
   namespace fs = std::filesystem;
@@ -129,24 +166,23 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
   const double dt = scene.dt;
   const std::uint64_t ticks = sim.duration_ticks();
   const fs::path out = options.out.empty() ? scene.output : options.out;
-  if (options.frames < 0 || std::uint64_t(options.frames) > ticks)
-    return Error{where + ": frames must be between 0 and the run's " + std::to_string(ticks) +
-                 " ticks, not " + std::to_string(options.frames)};
+  auto frame_ticks = image_ticks(options.frames, options.frame_times, ticks, dt, where, "frames", "frame_times");
+  if (!frame_ticks) return frame_ticks.error();
+  auto us_ticks = image_ticks(options.ultrasound, options.ultrasound_times, ticks, dt, where, "ultrasound images",
+                              "ultrasound_times");
+  if (!us_ticks) return us_ticks.error();
   // Frames are drawn off-screen, at most kMaxOffscreenSide a side: say so before the run, naming
   // the scene's key (the loader allows larger cameras, for the viewer's window).
-  if (options.frames > 0 && scene.camera)
+  if (!frame_ticks->empty() && scene.camera)
     for (const auto& [key, side] : {std::pair{"camera.width", scene.camera->width}, std::pair{"camera.height", scene.camera->height}})
       if (side > kMaxOffscreenSide)
         return Error{where + ": " + key + ": " + std::to_string(side) + " pixels is more than frames can be drawn "
                      "off-screen (at most " + std::to_string(kMaxOffscreenSide) + "); lower it to run with --frames"};
-  if (options.ultrasound < 0 || std::uint64_t(options.ultrasound) > ticks)
-    return Error{where + ": ultrasound images must be between 0 and the run's " + std::to_string(ticks) +
-                 " ticks, not " + std::to_string(options.ultrasound)};
-  if (options.ultrasound > 0 && !scene.probe)
+  if (!us_ticks->empty() && !scene.probe)
     return Error{where + ": ultrasound images need a 'probe' section in the scene (the probe's device, "
                  "footprint and imaging; docs/scene-format.md), and this scene has none"};
-  const auto nframes = static_cast<size_t>(options.frames);
-  const auto nus = static_cast<size_t>(options.ultrasound);
+  const size_t nframes = frame_ticks->size();
+  const size_t nus = us_ticks->size();
   if (nframes > 0 && !sim.options().snapshots)
     return Error{where + ": frames need a simulation built with snapshots (run_simulation_options)"};
   const size_t ntissues = sim.tissue_count();
@@ -157,12 +193,8 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
   // The vein (the scene's first `vein` tissue) for the ultrasound images.
   const int vein = nus > 0 && ntissues == scene.tissues.size() && sim.options().snapshots ? sim.tissue_with_role("vein") : -1;
 
-  // Image k of n is taken after target(k, n) ticks: the first after the first tick, the last at the end.
-  auto target_of = [&](size_t k, size_t n) -> std::uint64_t {
-    if (n == 1) return ticks;
-    return 1 + static_cast<std::uint64_t>(std::llround(double(k) * double(ticks - 1) / double(n - 1)));
-  };
-  auto frame_target = [&](size_t k) { return target_of(k, nframes); };
+  // Frame k is taken after frame_target(k) ticks (image_ticks).
+  auto frame_target = [&](size_t k) { return (*frame_ticks)[k]; };
   const int digits = nframes > 1000 ? int(std::to_string(nframes - 1).size()) : 3;
   std::vector<RunFrame> frames;
   std::string frame_error;
@@ -225,7 +257,7 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
 
   // Ultrasound images: image k after us_target(k) ticks, from the newest tick's probe and needle
   // (the loop's tool samples; in a headless run exactly that tick), on this thread.
-  auto us_target = [&](size_t k) { return target_of(k, nus); };
+  auto us_target = [&](size_t k) { return (*us_ticks)[k]; };
   SnapshotTissue* vein_snap = vein >= 0 ? snaps[size_t(vein)] : nullptr;
   std::vector<Vec3f> vein_rest;  // the vein's particles before the first step
   if (vein_snap) vein_rest = vein_snap->latest().points;

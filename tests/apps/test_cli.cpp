@@ -327,3 +327,40 @@ TEST(Cli, VerboseSaysWhatWasLoadedFromWhereAndQuietPrintsNothingButErrors) {
   }
   fs::remove_all(out);
 }
+
+// Images at chosen times (issue 35: evenly spaced, none fell in cvc.yaml's compression check):
+// each after the tick that ends nearest its time; times out of order, outside the run or with a
+// count besides are refused, named.
+TEST(Cli, FramesAndUltrasoundImagesAtChosenTimes) {
+  namespace fs = std::filesystem;
+  const fs::path out = fs::temp_directory_path() / "palpate_test_cli_times";
+  fs::remove_all(out);
+  const std::string probe = std::string(PALPATE_DATA_DIR) + "/scenes/probe.yaml";
+  Ran r = run("run " + probe + " --frame-times 0.5,2,3.75 -o " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("frame_000.png  (t = 0.500 s)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("frame_001.png  (t = 2.000 s)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("frame_002.png  (t = 3.750 s)"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(out / "frame_003.png"));
+  // A time of 0 is the first tick's image.
+  r = run("run " + probe + " -q --frame-times 0 -o " + out.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  r = run("run " + probe + " --frame-times 2,0.5 -o " + out.string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("frame_times: expected ascending times, each on a tick of its own: 0.5 s"), std::string::npos) << r.out;
+  r = run("run " + probe + " --frame-times 1,1.0004 -o " + out.string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("each on a tick of its own"), std::string::npos) << r.out;
+  r = run("run " + probe + " --frame-times 9 -o " + out.string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("frame_times: 9 s is outside the run (0 to 4 s)"), std::string::npos) << r.out;
+  r = run("run " + probe + " --frame-times 1 --frames 3 -o " + out.string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("excludes"), std::string::npos) << r.out;
+  // Ultrasound at chosen times, in the CVC scene's compression check (docs/cvc.md).
+  r = run(std::string("run ") + PALPATE_DATA_DIR + "/scenes/cvc.yaml --ultrasound-times 0.001,2.5 -o " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("us_000.png  (t = 0.001 s)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("us_001.png  (t = 2.500 s)"), std::string::npos) << r.out;
+  fs::remove_all(out);
+}

@@ -33,6 +33,9 @@ struct RunOptions {
   // tool and force of that tick. In a realtime run they are drawn on this thread while the haptic
   // thread runs (hand-over through SnapshotTissue: the loop never waits for them).
   int frames = 0;
+  // Frames at these times instead (s, ascending, within the run; `frames` is then ignored): each
+  // after the tick that ends nearest it (the first tick at the earliest), no two on one tick.
+  std::vector<double> frame_times;
   FrameOptions frame_options;
   // Set it (from any thread, or a signal handler: a lock-free atomic) to end the run early: it stops
   // at a tick boundary, the force ramps to zero within the rate limit, and the outputs are written
@@ -44,6 +47,8 @@ struct RunOptions {
   // pushes it (the scene's `vein` tissue handed over through a SnapshotTissue, as frames are);
   // drawn on this thread, off the haptic thread. Needs the scene's `probe`.
   int ultrasound = 0;
+  // Ultrasound images at these times instead (s; as frame_times).
+  std::vector<double> ultrasound_times;
   // Every tick's kept series row in full precision (double): the needle's time, pose and force and
   // each extra tool's pose and force (HapticLoop::finish_recording lists them;
   // RunSummary::series_columns names them), streamed back from the recorder's file after the run,
