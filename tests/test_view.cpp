@@ -222,4 +222,5 @@ TEST(ViewCli, BadProbeIsNamedAndHelpListsTheFlags) {
   EXPECT_EQ(r.code, 0);
   for (const char* flag : {"--frames", "--exit", "--screenshot", "--probe", "--no-panels"})
     EXPECT_NE(r.out.find(flag), std::string::npos) << flag;
+  EXPECT_EQ(r.out.find("{false}"), std::string::npos) << "a flag's value printed in the help:\n" << r.out;
 }
