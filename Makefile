@@ -5,7 +5,7 @@ CLI    := $(BUILD)/apps/palpate/palpate
 SCENE  ?= data/scenes/cvc.yaml
 DEMO_OUT ?= out/demo
 
-.PHONY: all deps configure build test golden demo bench fuzz fuzz-build asan-test tsan-test format tidy clean
+.PHONY: all deps configure build test golden demo bench bench-python python-shell fuzz fuzz-build asan-test tsan-test format tidy clean
 
 all: build
 
@@ -57,6 +57,16 @@ tsan-test: deps
 
 bench: build
 	$(BUILD)/bench/palpate_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+
+# Python (docs/python.md): Debian's python3 with the build tree's `palpate` importable; after
+# `cmake --install` plain `python3` imports it with no environment variable.
+PYTHON := /usr/bin/python3
+python-shell: build
+	PYTHONPATH=$(CURDIR)/$(BUILD)/python $(PYTHON) $(ARGS)
+
+# step_many against the same loop in C++ (docs/BENCHMARKS.md, "Python"): fails over 10 %.
+bench-python: build
+	PYTHONPATH=$(CURDIR)/$(BUILD)/python $(PYTHON) bench/python_step_many.py $(BUILD)/bench/palpate_bench
 
 format:
 	clang-format -i $$(git ls-files '*.cpp' '*.h')
