@@ -11,6 +11,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <span>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -243,6 +245,35 @@ TEST(NeedleFeel, TheShippedRunIsNeverRateLimitedWhileAFaultStillIs) {
   auto f = run_scene(jump, o);
   ASSERT_TRUE(f.ok()) << f.error().message;
   EXPECT_GT(f->safety.rate_limited, 0u);
+  std::filesystem::remove_all(out);
+}
+
+// Issue 35: where the shipped needle turns from advance to withdrawal (default.yaml's waypoint at
+// t = 3 s, 20 mm deep), the shaft's friction reversed on the waypoint's own tick, a 19 % drop in
+// the force while the needle was still advancing into that tick. The force now holds through the
+// deepest tick and falls from the first withdrawing one.
+TEST(NeedleFeel, FrictionReversesOnTheFirstWithdrawingTickNotBefore) {
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / "palpate_needle_turn";
+  RunOptions o;
+  o.out = out;
+  o.plots = false;
+  std::vector<std::array<double, 3>> rows;  // t, tool_y, force_y
+  o.series_row = [&](std::span<const double> row) { rows.push_back({row[0], row[2], row[5]}); };
+  auto r = run_scene(shipped(), o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->series_columns[0], "t");
+  ASSERT_EQ(r->series_columns[2], "tool_y");
+  ASSERT_EQ(r->series_columns[5], "force_y");
+  size_t deepest = 0;
+  for (size_t k = 0; k < rows.size(); ++k)
+    if (rows[k][1] < rows[deepest][1]) deepest = k;
+  ASSERT_GT(deepest, 10u);
+  ASSERT_LT(deepest + 10, rows.size());
+  EXPECT_NEAR(rows[deepest][0], 3.0, 1e-9);
+  // Advancing into the deepest tick: the force there is the advancing force, as on the ticks before.
+  EXPECT_NEAR(rows[deepest][2], rows[deepest - 1][2], 0.01 * rows[deepest - 1][2]) << "t = " << rows[deepest][0];
+  // Withdrawing from the next tick on: the friction reverses there, and the force falls.
+  EXPECT_LT(rows[deepest + 1][2], 0.9 * rows[deepest][2]);
   std::filesystem::remove_all(out);
 }
 

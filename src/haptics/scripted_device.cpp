@@ -56,19 +56,28 @@ bool ScriptedDevice::read(double t, DeviceState& out) noexcept {
     out.velocity.setZero();
     return true;
   }
-  // Ticks move forward, so the cached segment is almost always right; rewind if time went back.
-  if (segment_ >= n - 1 || waypoints_[segment_].t > t) segment_ = 0;
-  while (segment_ + 1 < n - 1 && waypoints_[segment_ + 1].t <= t) ++segment_;
+  // The segment (a, b] that holds t: at a waypoint's own time, the segment that ends there, so the
+  // velocity is the motion that brought the tool to it — where an advance turns into a withdrawal,
+  // the tick at the waypoint still advances (the shaft's friction reverses on the next tick, not
+  // one early). Ticks move forward, so the cached segment is almost always right; rewind if time
+  // went back.
+  if (segment_ >= n - 1 || waypoints_[segment_].t >= t) segment_ = 0;
+  while (segment_ + 1 < n - 1 && waypoints_[segment_ + 1].t < t) ++segment_;
   const Waypoint& a = waypoints_[segment_];
   const Waypoint& b = waypoints_[segment_ + 1];
   const double span = b.t - a.t;
   const double s = span > 0 ? (t - a.t) / span : 1.0;
-  out.position = a.position + s * (b.position - a.position);
-  out.velocity = span > 0 ? Vec3((b.position - a.position) / span) : Vec3::Zero();
   const Quat& qa = orientations_[segment_];
   const Quat& qb = orientations_[segment_ + 1];
-  // Equal ends (every waypoint without a direction): exactly that orientation, no round-off.
-  out.orientation = qa.coeffs() == qb.coeffs() ? qa : qa.slerp(s, qb);
+  if (t == b.t) {  // at the waypoint: exactly its position and orientation
+    out.position = b.position;
+    out.orientation = qb;
+  } else {
+    out.position = a.position + s * (b.position - a.position);
+    // Equal ends (every waypoint without a direction): exactly that orientation, no round-off.
+    out.orientation = qa.coeffs() == qb.coeffs() ? qa : qa.slerp(s, qb);
+  }
+  out.velocity = span > 0 ? Vec3((b.position - a.position) / span) : Vec3::Zero();
   return true;
 }
 

@@ -34,6 +34,31 @@ TEST(ScriptedDevice, InterpolatesLinearlyAndHoldsEnds) {
   EXPECT_EQ(s.velocity, Vec3::Zero());
 }
 
+// Issue 35: at a waypoint where an advance turns into a withdrawal the device reported the
+// withdrawal's velocity on the waypoint's own tick, so the shaft's friction reversed one tick
+// early (a 19–23 % drop in the force while still advancing). At a waypoint's time the velocity is
+// the segment that ends there; the next tick has the next segment's.
+TEST(ScriptedDevice, AtAWaypointTheVelocityIsTheMotionThatBroughtTheToolThere) {
+  ScriptedDevice d({{0.0, Vec3(0, 0.01, 0)}, {1.0, Vec3(0, -0.01, 0)}, {1.5, Vec3(0, 0.0, 0)}, {2.0, Vec3(0, 0.0, 0)}},
+                   {}, Vec3(0, -1, 0));
+  DeviceState s;
+  for (int pass = 0; pass < 2; ++pass) {  // forward, then again after a read later in time (the cache rewinds)
+    d.read(0.999, s);
+    EXPECT_NEAR(s.velocity.y(), -0.02, 1e-15);
+    d.read(1.0, s);
+    EXPECT_EQ(s.position, Vec3(0, -0.01, 0));  // exactly the waypoint
+    EXPECT_NEAR(s.velocity.y(), -0.02, 1e-15) << "still advancing on the waypoint's tick";
+    d.read(1.001, s);
+    EXPECT_NEAR(s.velocity.y(), 0.02, 1e-15);
+    d.read(1.5, s);
+    EXPECT_EQ(s.position, Vec3(0, 0, 0));
+    EXPECT_NEAR(s.velocity.y(), 0.02, 1e-15) << "still withdrawing on the waypoint's tick";
+    d.read(1.75, s);
+    EXPECT_EQ(s.velocity, Vec3::Zero());  // holding
+    d.read(1.9, s);
+  }
+}
+
 TEST(ScriptedDevice, PathIsContinuousTickByTick) {
   ScriptedDevice d({{0.0, Vec3::Zero()}, {0.3, Vec3(0, -0.003, 0)}, {0.6, Vec3(0.003, -0.003, 0)}}, {}, Vec3(0, -1, 0));
   DeviceState s;
