@@ -266,3 +266,30 @@ TEST(CvcScenes, AChangedLayerIsFeltInTheRun) {
   ASSERT_NE(skin, r->events.end());
   EXPECT_NEAR(skin->force, 2.0, 0.05 * 2.0);
 }
+
+// Issue 35: with the tissues on their own 100 Hz thread the vein's puncture was stamped with the
+// end of the physics step that made it (6.110 s) and logged after the flashback it causes (6.101 s).
+// An event is stamped no later than the tick that reports it; the flashback follows its puncture.
+TEST(CvcScenes, AtAPhysicsRateTheFlashbackFollowsThePunctureThatCausesIt) {
+  auto scene = load_scene(std::string(PALPATE_SOURCE_DIR) + "/data/scenes/cvc.yaml");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  auto expanded = expand_anatomy(*scene);
+  ASSERT_TRUE(expanded.ok()) << expanded.error().message;
+  RunOptions o;
+  o.out = std::filesystem::temp_directory_path() / "palpate_cvc_physics_rate";
+  o.plots = false;
+  o.physics_dt.assign(expanded->tissues.size(), 0.01);  // 100 Hz
+  auto r = run_scene(*expanded, o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  std::filesystem::remove_all(o.out);
+  const auto flash = std::find_if(r->events.begin(), r->events.end(), [](const RunEvent& e) { return e.kind == "flashback"; });
+  ASSERT_NE(flash, r->events.end());
+  const auto vein = std::find_if(r->events.begin(), r->events.end(),
+                                 [](const RunEvent& e) { return e.kind == "puncture" && e.tissue == "ijv"; });
+  ASSERT_NE(vein, r->events.end());
+  EXPECT_LT(vein - r->events.begin(), flash - r->events.begin()) << "the puncture is logged before its flashback";
+  EXPECT_LE(vein->time, flash->time);
+  // Every event within the run, in the order logged.
+  for (size_t k = 1; k < r->events.size(); ++k) EXPECT_LE(r->events[k - 1].time, r->events[k].time) << k;
+  EXPECT_LE(r->events.back().time, double(r->ticks) * r->dt + 1e-9);
+}

@@ -5,6 +5,7 @@
 
 #include "haptics/pacing.h"
 
+#include <algorithm>
 #include <cmath>
 
 #if defined(__x86_64__)
@@ -194,8 +195,12 @@ void HapticLoop::Impl::record(TickState& ts) noexcept {
     while ((n_ev = slots[i].worker ? slots[i].worker->drain_events(event_buf) : slots[i].tissue->drain_events(event_buf)) > 0)
       for (size_t e = 0; e < n_ev; ++e) {
         const TissueEvent& ev = event_buf[e];
-        outcome_event(s.outcome, outcome, ev.kind, int(i), ev.time, tool.tip, tool.axis);
-        if (recorder) (void)recorder->push_event({ev.time, ev.kind, int(i), ev.depth, ev.force});
+        // A tissue on its own thread stamps an event with its own clock, the end of the step that
+        // made it (at 100 Hz up to 10 ms past this tick): it happened by this tick, which reports
+        // it, and no later — so the flashback it causes is never logged before it.
+        const double when = slots[i].worker ? std::min(ev.time, ts.t) : ev.time;
+        outcome_event(s.outcome, outcome, ev.kind, int(i), when, tool.tip, tool.axis);
+        if (recorder) (void)recorder->push_event({when, ev.kind, int(i), ev.depth, ev.force});
       }
   }
   // The outcome after this tick's events: where the tip is now (as the tissues saw it).
