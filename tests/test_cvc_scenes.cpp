@@ -13,7 +13,9 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <cstdio>
 #include <fstream>
+#include <set>
 #include <map>
 #include <sstream>
 #include <string>
@@ -292,4 +294,42 @@ TEST(CvcScenes, AtAPhysicsRateTheFlashbackFollowsThePunctureThatCausesIt) {
   // Every event within the run, in the order logged.
   for (size_t k = 1; k < r->events.size(); ++k) EXPECT_LE(r->events[k - 1].time, r->events[k].time) << k;
   EXPECT_LE(r->events.back().time, double(r->ticks) * r->dt + 1e-9);
+}
+
+// Issue 35: docs/cvc.md's table of the probe's script disagreed with cvc.yaml. Its times are the
+// scene's probe waypoints, and its depths the scene's.
+TEST(CvcScenes, TheDocsProbeScriptIsTheScenes) {
+  auto scene = load_scene(std::string(PALPATE_SOURCE_DIR) + "/data/scenes/cvc.yaml");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  ASSERT_TRUE(scene->probe.has_value());
+  std::set<double> waypoint_times;
+  for (const Waypoint& w : scene->probe->device.waypoints) waypoint_times.insert(w.t);
+  std::ifstream in(std::string(PALPATE_SOURCE_DIR) + "/docs/cvc.md");
+  std::string line;
+  bool table = false;
+  std::set<double> doc_times;
+  std::string doc;
+  while (std::getline(in, line)) {
+    doc += line + "\n";
+    if (line.rfind("| t (s) | the probe |", 0) == 0) {
+      table = true;
+      continue;
+    }
+    if (!table) continue;
+    if (line.rfind("|---", 0) == 0) continue;
+    if (line.rfind("| ", 0) != 0) break;
+    // "| 0.15–0.55 | ..." : the bounds of the row's interval.
+    const std::string cell = line.substr(2, line.find(" |", 2) - 2);
+    const size_t dash = cell.find("–");
+    doc_times.insert(std::stod(cell.substr(0, dash)));
+    if (dash != std::string::npos && dash + 3 < cell.size()) doc_times.insert(std::stod(cell.substr(dash + 3)));
+  }
+  ASSERT_TRUE(table) << "docs/cvc.md has no probe table";
+  EXPECT_EQ(doc_times, waypoint_times);
+  // The depths it names are the waypoints' (the face below the rest skin at y = 0).
+  for (const Waypoint& w : scene->probe->device.waypoints) {
+    char depth[32];
+    std::snprintf(depth, sizeof depth, "%.1f mm", -w.position.y() * 1e3);
+    EXPECT_NE(doc.find(depth), std::string::npos) << depth;
+  }
 }
