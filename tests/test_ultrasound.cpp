@@ -276,8 +276,44 @@ TEST(Ultrasound, AProbeOffTheSkinShowsNothing) {
   UltrasoundImage img;
   us.render(lifted, {}, 0, img);
   EXPECT_FALSE(img.in_contact);
-  EXPECT_EQ(*std::max_element(img.grey.begin(), img.grey.end()), 0);
+  EXPECT_EQ(*std::max_element(img.envelope.begin(), img.envelope.end()), 0.0f);
+  // Black but for the depth scale and the orientation marker, exactly as drawn on a black image.
+  UltrasoundImage black = img;
+  std::fill(black.grey.begin(), black.grey.end(), std::uint8_t(0));
+  draw_ultrasound_overlay(black);
+  EXPECT_EQ(img.grey, black.grey);
   EXPECT_EQ(us.neck().probe_force(lifted).norm(), 0.0);
+}
+
+// Issue 35: the images had no depth scale nor orientation marker. A tick every 5 mm of depth on
+// the right edge (a longer one every 10 mm) at the row of that depth, and the marker at the top left.
+TEST(Ultrasound, ImagesCarryADepthScaleAndAnOrientationMarker) {
+  const NeckDef neck;
+  const ProbeDef probe;  // 40 mm deep, 256 rows
+  UltrasoundImager us(neck, probe);
+  ProbePose pose;
+  pose.position = Vec3(0, -0.003, 0);
+  UltrasoundImage img;
+  us.render(pose, {}, 0, img);
+  ASSERT_TRUE(img.in_contact);
+  const int W = img.width;
+  auto grey = [&](int col, int row) { return int(img.grey[size_t(row) * size_t(W) + size_t(col)]); };
+  int ticks = 0;
+  for (int mm = 5; mm * 1e-3 <= (img.height - 1) * img.pixel_depth; mm += 5) {
+    const int row = int(std::lround(mm * 1e-3 / img.pixel_depth));
+    const int len = mm % 10 == 0 ? kDepthTickLong : kDepthTickShort;
+    for (int c = W - len; c < W; ++c) EXPECT_EQ(grey(c, row), 255) << mm << " mm, column " << c;
+    EXPECT_EQ(grey(W - len - 1, row), 0) << mm << " mm: the tick's black edge";
+    EXPECT_EQ(grey(W - 1, row - 1), 0) << mm << " mm: black above";
+    EXPECT_EQ(grey(W - 1, row + 1), 0) << mm << " mm: black below";
+    ++ticks;
+  }
+  EXPECT_EQ(ticks, 7);  // 5 … 35 mm in a 40 mm image (row 255 is 39.8 mm)
+  for (int r = 2; r < 2 + kMarkerSide; ++r)
+    for (int c = 2; c < 2 + kMarkerSide; ++c) EXPECT_EQ(grey(c, r), 255);
+  EXPECT_EQ(grey(1, 1), 0);
+  // The overlay is on the grey image only: the echoes (envelope) under it are the tissue's.
+  EXPECT_GT(img.envelope[size_t(3) * size_t(W) + 3] + img.envelope[size_t(100) * size_t(W) + size_t(W - 2)], 0.0f);
 }
 
 TEST(Ultrasound, TheProbesForceRisesSmoothlyWithItsPressAndPointsOutOfTheSkin) {

@@ -412,6 +412,33 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
     const float db = e > 0 ? to_db * std::log(e / ref) : -1e9f;
     out.grey[i] = std::uint8_t(std::clamp(255.0f * (db + dr) / dr + 0.5f, 0.0f, 255.0f));
   }
+  draw_ultrasound_overlay(out);
+}
+
+void draw_ultrasound_overlay(UltrasoundImage& image) noexcept {
+  const int W = image.width, H = image.height;
+  if (W < 16 || H < 16 || !(image.pixel_depth > 0)) return;
+  auto set = [&](int col, int row, std::uint8_t g) {
+    if (col >= 0 && col < W && row >= 0 && row < H) image.grey[size_t(row) * size_t(W) + size_t(col)] = g;
+  };
+  // The depth scale on the right edge: a tick every 5 mm from the face, a longer one every 10 mm,
+  // each one pixel high, white, edged in black above, below and at its left end so it shows on
+  // white tissue too.
+  const double step = 0.005;
+  const int n = int(std::floor((H - 1) * image.pixel_depth / step + 1e-9));
+  for (int k = 1; k <= n; ++k) {
+    const int row = int(std::lround(k * step / image.pixel_depth));
+    const int len = k % 2 == 0 ? kDepthTickLong : kDepthTickShort;
+    for (int r = row - 1; r <= row + 1; r += 2)
+      for (int c = W - len - 1; c < W; ++c) set(c, r, 0);
+    set(W - len - 1, row, 0);
+    for (int c = W - len; c < W; ++c) set(c, row, 255);
+  }
+  // The orientation marker: a white square with a black border at the top left, the image's side of
+  // the probe's −lateral end (ProbeDef::lateral points from the image's left to its right).
+  for (int r = 1; r <= 2 + kMarkerSide; ++r)
+    for (int c = 1; c <= 2 + kMarkerSide; ++c)
+      set(c, r, (r >= 2 && r < 2 + kMarkerSide && c >= 2 && c < 2 + kMarkerSide) ? 255 : 0);
 }
 
 Status write_ultrasound_png(const UltrasoundImage& image, const std::filesystem::path& file) {

@@ -135,4 +135,12 @@ class UltrasoundImager {
 // Write an ultrasound image as an 8-bit grey PNG (atomically, via <file>.part).
 Status write_ultrasound_png(const UltrasoundImage& image, const std::filesystem::path& file);
 
+// What render() burns into the grey image (not the envelope), as a scanner shows it: the depth
+// scale on the right edge — a tick every 5 mm from the probe's face (kDepthTickShort pixels long,
+// every 10 mm kDepthTickLong), white edged in black — and the orientation marker, a white square
+// kMarkerSide pixels wide at the top left: the image's left is the probe's −lateral end
+// (ProbeDef::lateral runs from the image's left to its right).
+inline constexpr int kDepthTickShort = 4, kDepthTickLong = 8, kMarkerSide = 4;
+void draw_ultrasound_overlay(UltrasoundImage& image) noexcept;
+
 }  // namespace palpate
