@@ -104,3 +104,35 @@ TEST(Plots, BuilderHoldsALongRunAsAMinMaxEnvelope) {
   EXPECT_EQ(out.time.front(), 0.0);
   EXPECT_NEAR(out.time.back(), double(kTicks - 1) * 0.001, 0.2);
 }
+
+// Issue 35: the labels were written over the puncture's peak (anchored at the top, reading down),
+// and the probe's force was missing. Labels now read up from the bottom; a probe's |F| is a series
+// of its own, in the data and the force-time plot.
+TEST(Plots, LabelsReadUpFromTheBottomAndTheProbesForceIsDrawn) {
+  const fs::path dir = fs::temp_directory_path() / "palpate_plots_probe";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  palpate::PlotSeriesBuilder b(100);
+  for (int i = 0; i < 100; ++i) b.add(i * 0.001, i * 1e-5, i < 50 ? i * 0.02 : 0.2, 0.0, 0.5 + i * 0.01);
+  const palpate::PlotSeries s = b.finish();
+  ASSERT_EQ(s.probe.size(), s.time.size());
+  const std::vector<palpate::RunEvent> events = {{0.049, "puncture", "skin", 0.0, 1.0}};
+  std::vector<fs::path> written;
+  ASSERT_TRUE(palpate::plot_run(dir, "t", s, events, &written).ok());
+  std::ifstream gp(dir / "plots.gp");
+  const std::string script((std::istreambuf_iterator<char>(gp)), std::istreambuf_iterator<char>());
+  EXPECT_NE(script.find("'puncture skin' at 0.049000, graph 0.03 rotate by 90 left"), std::string::npos) << script;
+  EXPECT_EQ(script.find("graph 0.95"), std::string::npos) << script;
+  EXPECT_NE(script.find("data using 1:5 with lines"), std::string::npos) << script;
+  std::ifstream dat(dir / "force.dat");
+  std::string header, first;
+  std::getline(dat, header);
+  std::getline(dat, first);
+  EXPECT_EQ(header, "# time_s depth_mm force_N axial_N probe_force_N");
+  EXPECT_EQ(first, "0.000000 0.000000 0.000000 0.000000 0.500000");
+  // Without a probe: four columns, no probe line.
+  palpate::PlotSeriesBuilder c(10);
+  for (int i = 0; i < 10; ++i) c.add(i * 0.001, 0.0, 0.1, 0.0);
+  ASSERT_TRUE(c.finish().probe.empty());
+  fs::remove_all(dir);
+}

@@ -62,10 +62,11 @@ PlotSeriesBuilder::PlotSeriesBuilder(std::uint64_t ticks) {
   for (auto* v : {&out_.time, &out_.depth, &out_.force, &out_.axial}) v->reserve(static_cast<size_t>(rows));
 }
 
-void PlotSeriesBuilder::add(double time, double depth, double force, double axial) {
-  const Row r{time, depth, force, axial, seen_++};
+void PlotSeriesBuilder::add(double time, double depth, double force, double axial, double probe) {
+  const Row r{time, depth, force, axial, probe, seen_++};
   if (stride_ == 1) {
     out_.time.push_back(time), out_.depth.push_back(depth), out_.force.push_back(force), out_.axial.push_back(axial);
+    if (!std::isnan(probe)) out_.probe.push_back(probe);
     return;
   }
   if (in_block_ == 0) lo_f_ = hi_f_ = lo_a_ = hi_a_ = r;
@@ -84,6 +85,7 @@ void PlotSeriesBuilder::flush() {
     if (i > 0 && rows[i].k == rows[i - 1].k) continue;
     out_.time.push_back(rows[i].time), out_.depth.push_back(rows[i].depth);
     out_.force.push_back(rows[i].force), out_.axial.push_back(rows[i].axial);
+    if (!std::isnan(rows[i].probe)) out_.probe.push_back(rows[i].probe);
   }
   in_block_ = 0;
 }
@@ -96,19 +98,24 @@ PlotSeries PlotSeriesBuilder::finish() {
 Status plot_run(const std::filesystem::path& dir, const std::string& title, const PlotSeries& s,
                 std::span<const RunEvent> events, std::vector<std::filesystem::path>* written) {
   const auto data = dir / "force.dat";
-  std::string text = "# time_s depth_mm force_N axial_N\n";
-  for (size_t i = 0; i < s.time.size(); ++i)
-    fmt::format_to(std::back_inserter(text), "{:.6f} {:.6f} {:.6f} {:.6f}\n", s.time[i],
-                   s.depth[i] * 1e3, s.force[i], s.axial[i]);
+  const bool probe = !s.probe.empty() && s.probe.size() == s.time.size();
+  std::string text = probe ? "# time_s depth_mm force_N axial_N probe_force_N\n" : "# time_s depth_mm force_N axial_N\n";
+  for (size_t i = 0; i < s.time.size(); ++i) {
+    fmt::format_to(std::back_inserter(text), "{:.6f} {:.6f} {:.6f} {:.6f}", s.time[i], s.depth[i] * 1e3, s.force[i],
+                   s.axial[i]);
+    if (probe) fmt::format_to(std::back_inserter(text), " {:.6f}", s.probe[i]);
+    text += '\n';
+  }
   if (Status st = write_file_atomic(data, text); !st) return st;
 
   std::string gp;
   gp += "set terminal pngcairo size 900,540 enhanced font 'sans,11'\n";
-  gp += "set grid\nset key top left noenhanced\n";
+  gp += "set grid\nset key top right noenhanced\n";
   gp += fmt::format("data = {}\n", quote(data.string()));
   // Events: a dashed vertical line and a label each. Events closer in time than 1 % of the run
   // (skin and fat giving on one tick, a vein's puncture and its flashback) share one line and one
-  // label, so the labels do not print over each other; a flashback's line is green.
+  // label, so the labels do not print over each other; a flashback's line is green. A label reads
+  // up from the bottom of the plot: a puncture's peak is at the top, where the label used to be.
   std::string marks_t, marks_d;
   const double span = s.time.size() > 1 ? s.time.back() - s.time.front() : 0.0;
   int n = 1;
@@ -126,12 +133,12 @@ Status plot_run(const std::filesystem::path& dir, const std::string& title, cons
     const char* colour = flashback ? "#208040" : "#c03030";
     marks_t += fmt::format(
         "set arrow {} from {:.6f}, graph 0 to {:.6f}, graph 1 nohead dt 2 lc rgb '{}'\n"
-        "set label {} {} at {:.6f}, graph 0.95 rotate by 90 right noenhanced font ',9' tc rgb '{}'\n",
+        "set label {} {} at {:.6f}, graph 0.03 rotate by 90 left noenhanced font ',9' tc rgb '{}'\n",
         n, t, t, colour, n, label, t, colour);
     const double d = depth_at(s, t) * 1e3;
     marks_d += fmt::format(
         "set arrow {} from {:.6f}, graph 0 to {:.6f}, graph 1 nohead dt 2 lc rgb '{}'\n"
-        "set label {} {} at {:.6f}, graph 0.95 rotate by 90 right noenhanced font ',9' tc rgb '{}'\n",
+        "set label {} {} at {:.6f}, graph 0.03 rotate by 90 left noenhanced font ',9' tc rgb '{}'\n",
         n, d, d, colour, n, label, d, colour);
     ++n;
   }
@@ -143,7 +150,9 @@ Status plot_run(const std::filesystem::path& dir, const std::string& title, cons
   gp += "set xlabel 'time (s)'\nset ylabel 'force (N)'\n";
   gp += marks_t;
   gp += "plot data using 1:3 with lines lw 2 lc rgb '#1f5fa0' title '|F| sent to the device', \\\n"
-        "     data using 1:4 with lines lw 1 lc rgb '#50a050' title 'F against the tool axis'\n";
+        "     data using 1:4 with lines lw 1 lc rgb '#50a050' title 'F against the tool axis'";
+  if (probe) gp += ", \\\n     data using 1:5 with lines lw 1 lc rgb '#e08020' title '|F| sent to the probe (the other hand)'";
+  gp += "\n";
   gp += "unset arrow\nunset label\n";
   gp += fmt::format("set output {}\n", quote(png_d.string() + ".part"));
   gp += fmt::format("set title {}\n", quote(title + ": force against depth"));

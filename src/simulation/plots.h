@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -16,6 +17,7 @@ struct PlotSeries {
   std::vector<double> depth;  // m, tool travel along its axis past first contact (< 0 before)
   std::vector<double> force;  // N, magnitude of the force sent to the device
   std::vector<double> axial;  // N, component resisting the tool's advance (along −axis)
+  std::vector<double> probe;  // N, |F| sent to the ultrasound probe's device; empty without a probe
 };
 
 // Builds the plotted series from a run's ticks one at a time, holding at most about kMaxRows rows
@@ -27,13 +29,14 @@ class PlotSeriesBuilder {
  public:
   static constexpr std::uint64_t kMaxRows = 200000;
   explicit PlotSeriesBuilder(std::uint64_t ticks);  // how many ticks add() will be given
-  void add(double time, double depth, double force, double axial);
+  // `probe`: the probe's |F| (N); NaN when the scene has none.
+  void add(double time, double depth, double force, double axial, double probe = std::numeric_limits<double>::quiet_NaN());
   PlotSeries finish();
   std::uint64_t stride() const { return stride_; }
 
  private:
   struct Row {
-    double time, depth, force, axial;
+    double time, depth, force, axial, probe;
     std::uint64_t k;
   };
   void flush();

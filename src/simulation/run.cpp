@@ -509,11 +509,15 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
     if (contact == n) tip0 = first;
     PlotSeriesBuilder builder(n);
     const Vec3 tool_axis = scene.tool.axis.normalized();
+    // The probe's |F| (the other hand), when the scene has one.
+    const auto pcol = std::find(summary.series_columns.begin(), summary.series_columns.end(), "probe_force_N");
+    const size_t probe_col = pcol == summary.series_columns.end() ? 0 : size_t(pcol - summary.series_columns.begin());
     if (pass)
       pass = loop.for_each_series_row([&](std::span<const double> r) {
         // Depth and axial force along the needle as it pointed at that tick (the loop's own axis).
         const Vec3 axis = needle_axis(tool_axis, Quat(r[8], r[9], r[10], r[11]).normalized());
-        builder.add(r[0], (Vec3(r[1], r[2], r[3]) - tip0).dot(axis), r[7], -Vec3(r[4], r[5], r[6]).dot(axis));
+        builder.add(r[0], (Vec3(r[1], r[2], r[3]) - tip0).dot(axis), r[7], -Vec3(r[4], r[5], r[6]).dot(axis),
+                    probe_col > 0 ? r[probe_col] : std::numeric_limits<double>::quiet_NaN());
       });
     if (!pass) {
       summary.plot_error = "plots: " + pass.error().message;
