@@ -159,6 +159,7 @@ void outcome_event(const OutcomeModel& model, OutcomeState& s, const char* kind,
 bool outcome_tick(const OutcomeModel& model, OutcomeState& s, double time, const Vec3& tip,
                   const Vec3& axis, double force) noexcept {
   TrainingMetrics& m = s.metrics;
+  s.redirected = false;
   if (!s.started) {
     s.last_tip = tip;
     s.started = true;
@@ -192,6 +193,7 @@ bool outcome_tick(const OutcomeModel& model, OutcomeState& s, double time, const
         s.advancing = true, s.extreme = s.travel;
         ++m.passes;
         ++m.redirections;
+        s.redirected = true;
       }
     }
   }

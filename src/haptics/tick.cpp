@@ -204,7 +204,10 @@ void HapticLoop::Impl::record(TickState& ts) noexcept {
       }
   }
   // The outcome after this tick's events: where the tip is now (as the tissues saw it).
-  if (outcome_tick(s.outcome, outcome, ts.t, tool.tip, tool.axis, ts.force_norm) && recorder)
+  const bool flashback = outcome_tick(s.outcome, outcome, ts.t, tool.tip, tool.axis, ts.force_norm);
+  if (recorder && outcome.redirected)  // a new pass under the skin (docs/cvc.md, "Outcome and metrics")
+    (void)recorder->push_event({ts.t, "redirect", s.outcome.skin, 0.0, ts.force_norm});
+  if (flashback && recorder)
     (void)recorder->push_event({ts.t, "flashback", outcome.flashback_tissue, outcome.flashback_depth,
                                 outcome.flashback_force});
 }

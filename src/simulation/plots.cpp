@@ -114,7 +114,8 @@ Status plot_run(const std::filesystem::path& dir, const std::string& title, cons
   gp += fmt::format("data = {}\n", quote(data.string()));
   // Events: a dashed vertical line and a label each. Events closer in time than 1 % of the run
   // (skin and fat giving on one tick, a vein's puncture and its flashback) share one line and one
-  // label, so the labels do not print over each other; a flashback's line is green. A label reads
+  // label, so the labels do not print over each other; a flashback's line is green, a redirection's
+  // (a new pass under the skin) violet. A label reads
   // up from the bottom of the plot: a puncture's peak is at the top, where the label used to be.
   std::string marks_t, marks_d;
   const double span = s.time.size() > 1 ? s.time.back() - s.time.front() : 0.0;
@@ -122,15 +123,16 @@ Status plot_run(const std::filesystem::path& dir, const std::string& title, cons
   for (size_t i = 0; i < events.size();) {
     const double t = events[i].time;
     std::string names;
-    bool flashback = false;
+    bool flashback = false, redirect = true;
     size_t j = i;
     for (; j < events.size() && events[j].time - t <= 0.01 * span; ++j) {
-      names += (j > i ? ", " : "") + events[j].kind + " " + events[j].tissue;
+      names += (j > i ? ", " : "") + events[j].kind + (events[j].kind == "redirect" ? "" : " " + events[j].tissue);
       flashback = flashback || events[j].kind == "flashback";
+      redirect = redirect && events[j].kind == "redirect";
     }
     i = j;
     const std::string label = quote(names);
-    const char* colour = flashback ? "#208040" : "#c03030";
+    const char* colour = flashback ? "#208040" : redirect ? "#6040c0" : "#c03030";
     marks_t += fmt::format(
         "set arrow {} from {:.6f}, graph 0 to {:.6f}, graph 1 nohead dt 2 lc rgb '{}'\n"
         "set label {} {} at {:.6f}, graph 0.03 rotate by 90 left noenhanced font ',9' tc rgb '{}'\n",

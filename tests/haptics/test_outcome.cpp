@@ -340,6 +340,13 @@ TEST(OutcomeRun, AWithdrawalAndReadvanceUnderTheSkinIsTwoPasses) {
   const auto j = nlohmann::json::parse(slurp(out / "summary.json"));
   EXPECT_EQ(j["metrics"]["passes"], 2);
   EXPECT_NEAR(r->metrics.deepest_depth, 0.006, 1e-7);
+  // The redirection is an event of its own (issue 35: the plots mark it), on the tick the re-advance
+  // passes the pass distance: after the withdrawal's turn at 1.2 s, before the end of the re-advance.
+  const auto redirect = std::find_if(r->events.begin(), r->events.end(), [](const palpate::RunEvent& e) { return e.kind == "redirect"; });
+  ASSERT_NE(redirect, r->events.end());
+  EXPECT_GT(redirect->time, 1.2);
+  EXPECT_LT(redirect->time, 1.6);
+  EXPECT_EQ(std::count_if(r->events.begin(), r->events.end(), [](const palpate::RunEvent& e) { return e.kind == "redirect"; }), 1);
 }
 
 TEST(OutcomeRun, AtAClinical45DegreesAlongTheVeinInIsVeinAndThroughIsPosteriorWall) {

@@ -84,6 +84,7 @@ struct OutcomeState {
   double extreme = 0;             // m, travel's max while advancing, min while withdrawn
   Vec3 last_tip = Vec3::Zero();
   bool started = false;
+  bool redirected = false;        // this tick began a new pass (a redirection): for the caller's event
   // The flashback, once (for the caller's event).
   int flashback_tissue = -1;
   double flashback_depth = 0;     // m, below the vein wall's rest surface
