@@ -13,7 +13,7 @@
 // row's forces tick by tick.
 #include <palpate/spring.h>
 
-#include "haptics/render_error.h"
+#include "render_error.h"
 
 #include <benchmark/benchmark.h>
 

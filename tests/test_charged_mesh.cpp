@@ -3,6 +3,7 @@
 #include <palpate/mesh_load.h>
 #include <palpate/tissue_files.h>
 
+#include "components.h"
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -122,6 +123,7 @@ void expect_at_most_six_symmetric_neighbours(const ChargedModel& m) {
 }  // namespace
 
 TEST(ChargedMesh, ClosedSphereStaysClosedWithParticlesOnItAndOutwardNormals) {
+  PALPATE_NEEDS(CGAL, "CGAL");
   const SurfaceMesh sphere = icosphere(0.03, 3);
   ChargedMaterialDef mat;
   mat.mesh_spacing = 0.004;
@@ -141,6 +143,7 @@ TEST(ChargedMesh, ClosedSphereStaysClosedWithParticlesOnItAndOutwardNormals) {
 }
 
 TEST(ChargedMesh, OpenSheetKeepsItsBoundaryExactly) {
+  PALPATE_NEEDS(CGAL, "CGAL");
   const SurfaceMesh sheet = bumpy_sheet(12);
   ChargedMaterialDef mat;
   mat.mesh_spacing = 0.0015;
@@ -177,6 +180,7 @@ TEST(ChargedMesh, OpenSheetKeepsItsBoundaryExactly) {
 }
 
 TEST(ChargedMesh, LiverSurfacePatchIsOnTheSurfaceClosedAndAtMostSixNeighbours) {
+  PALPATE_NEEDS(CGAL, "CGAL");
   auto loaded = load_surface(std::string(PALPATE_DATA_DIR) + "/meshes/liver-smooth.obj", 0.01);
   ASSERT_TRUE(loaded.ok()) << loaded.error().message;
   const SurfaceMesh& liver = *loaded;
@@ -214,6 +218,7 @@ TEST(ChargedMesh, LiverSurfacePatchIsOnTheSurfaceClosedAndAtMostSixNeighbours) {
 }
 
 TEST(ChargedMesh, NonManifoldAndBadIndicesAreClearErrors) {
+  PALPATE_NEEDS(CGAL, "CGAL");
   SurfaceMesh bad = icosphere(0.03, 0);
   bad.F(3, 1) = 99;
   auto r = build_charged_on_mesh(bad, ChargedMaterialDef{}, "organ.obj");
@@ -231,6 +236,7 @@ TEST(ChargedMesh, NonManifoldAndBadIndicesAreClearErrors) {
 // particle spacings of 1 and 2 mm (the indentation is measured against the surface the particles
 // sample, not counted in particles), and the puncture comes at the material's force.
 TEST(ChargedMesh, ForceDepthOnACurvedMeshIsTheSameAtEverySpacing) {
+  PALPATE_NEEDS(CGAL, "CGAL");
   const SurfaceMesh sphere = icosphere(0.02, 4);
   const Vec3 dir = Vec3(0.31, 1.0, 0.17).normalized();  // between vertices
   std::vector<std::vector<double>> curves;

@@ -4,6 +4,7 @@
 #include <palpate/tissue.h>
 #include <palpate/tissue_files.h>
 
+#include "components.h"
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -89,6 +90,7 @@ TEST(ChargedTissue, PatchSceneStepsReportsFiguresEventsSnapshotAndResets) {
 }
 
 TEST(ChargedTissue, MeshSceneLaysParticlesOnTheLoadedSurface) {
+  PALPATE_NEEDS(CGAL, "CGAL");
   const SceneDef scene = scene_of(R"(tissues:
   - name: liver
     mesh: {file: meshes/liver-smooth.obj, scale: 0.01, translate: [0, 0.1, 0]}

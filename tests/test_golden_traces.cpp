@@ -1,6 +1,7 @@
 // test_golden_traces.cpp — every shipped scene's force and tool pose, tick by tick, equal its golden
 // trace (tests/golden/<scene>.trace.gz): a change that alters what the hand feels fails here, naming
 // the tick and the column. Re-record only on purpose (`make golden`, the reason in the commit).
+#include "components.h"
 #include "golden/trace.h"
 #include "sanitized.h"
 
@@ -47,6 +48,8 @@ TEST_P(GoldenTraces, ForceAndToolEqualTheRecordedTrace) {
   // Under a sanitizer the 54k-vertex organ's scene is past ctest's 300 s (test_shipped_scenes.cpp):
   // the release suite compares it.
   if (kSanitized && scene == "large-organ") GTEST_SKIP() << "release suite only (its run is past 300 s under a sanitizer)";
+  if (const std::string c = missing_component(kScenes / (scene + ".yaml")); !c.empty())
+    GTEST_SKIP() << scene << " needs " << c << ": palpate was built without it";
   golden::Trace want;
   std::string error;
   ASSERT_TRUE(golden::read_trace(kGolden / (scene + ".trace.gz"), want, error)) << error;

@@ -9,6 +9,7 @@
 #include <palpate/mesh_load.h>
 #include <palpate/tissue_files.h>
 
+#include "components.h"
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -127,6 +128,7 @@ const ProbeRun& liver_probe_run() {
 // to a few (a 4.9 cm column of tissue at E = 4.1 kPa compresses ρgH²/2E ≈ 3 mm), not the 9 cm it
 // fell hung from three nodes; its elements keep their orientation and their volume.
 TEST(LiverProbe, RestsOnItsBedWithAPhysiologicalSag) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const ProbeRun& r = liver_probe_run();
   ASSERT_FALSE(r.ticks.empty());
   ASSERT_GT(r.contact_y, 0) << "the probe never touched the liver";
@@ -140,6 +142,7 @@ TEST(LiverProbe, RestsOnItsBedWithAPhysiologicalSag) {
 // The probe reaches the organ and presses it with a force a hand feels (measured peak 0.30 N at
 // 6 mm), well under the device's limit.
 TEST(LiverProbe, ProbeTouchesAndPressesTheOrgan) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const ProbeRun& r = liver_probe_run();
   ASSERT_FALSE(r.ticks.empty());
   double peak_press = 0;
@@ -152,6 +155,7 @@ TEST(LiverProbe, ProbeTouchesAndPressesTheOrgan) {
 // Pressed 6 mm deep by the 1 cm probe, no element turns inside out: the volume term (poisson_ratio)
 // holds the tetrahedra under the probe (6 inverted at 6 mm with springs alone).
 TEST(LiverProbe, NoTetrahedronInvertsUnderThePress) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const ProbeRun& r = liver_probe_run();
   ASSERT_FALSE(r.ticks.empty());
   EXPECT_EQ(r.inverted_pressed, 0);
@@ -160,6 +164,7 @@ TEST(LiverProbe, NoTetrahedronInvertsUnderThePress) {
 // While the probe presses at constant speed the force on it rises every tick: no drop, no slip
 // between vertices (checked from first contact to the end of the press, at 5 mm/s).
 TEST(LiverProbe, ForceRisesMonotonicallyWhileThePressGoesOn) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const ProbeRun& r = liver_probe_run();
   ASSERT_FALSE(r.ticks.empty());
   size_t checked = 0;
@@ -187,6 +192,7 @@ TEST(LiverProbe, ForceRisesMonotonicallyWhileThePressGoesOn) {
 // Grasped and pulled up, the organ pulls the probe back toward itself (down), harder as it goes;
 // let go, the force is zero again and the liver springs back onto its bed.
 TEST(LiverProbe, GraspAndPullGivesAForceTowardTheOrgan) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const ProbeRun& r = liver_probe_run();
   ASSERT_FALSE(r.ticks.empty());
   double pull_start = 0, pull_end = 0, released = 1;
@@ -215,6 +221,7 @@ TEST(LiverProbe, GraspAndPullGivesAForceTowardTheOrgan) {
 // device's rate limit on every tick, holds part of the pull half-way, and is gone once the release
 // time is over.
 TEST(LiverProbe, LettingGoTheGraspFadesOverItsReleaseTime) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const ProbeRun& r = liver_probe_run();
   ASSERT_FALSE(r.ticks.empty());
   auto scene = palpate::load_scene(PALPATE_SOURCE_DIR "/data/scenes/liver-probe.yaml");

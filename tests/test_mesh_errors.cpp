@@ -2,6 +2,7 @@
 #include <palpate/mesh.h>
 #include <palpate/mesh_load.h>
 
+#include "components.h"
 #include "mesh_test_files.h"
 
 #include <gtest/gtest.h>
@@ -234,6 +235,7 @@ TEST(MeshErrors, TruncatedFiles) {
 }
 
 TEST(MeshErrors, WrongHeader) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   ScratchDir dir;
   const auto vtk = dir.write("wrong.vtk", "# vtk DataFile\nx\nASCII\nDATASET UNSTRUCTURED_GRID\n");
   EXPECT_EQ(palpate::load_tet(vtk).error().message,
@@ -273,6 +275,7 @@ TEST(MeshErrors, WrongHeader) {
 
 // Damaged Gmsh files that crashed Gmsh 4.8 itself (found by fuzzing) are refused before it reads them.
 TEST(MeshErrors, GmshFilesThatWouldCrashGmsh) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   ScratchDir dir;
   const std::string v4 = palpate::test::read_text(palpate::test::test_mesh("cube_v4.msh"));
   const auto replaced = [&](const std::string& name, const std::string& from, const std::string& to) {

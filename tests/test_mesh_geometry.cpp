@@ -2,6 +2,7 @@
 #include <palpate/mesh.h>
 #include <palpate/mesh_load.h>
 
+#include "components.h"
 #include "mesh_test_files.h"
 
 #include <gtest/gtest.h>
@@ -63,6 +64,7 @@ TEST(MeshGeometry, BoundaryOfCubeTetsIsTheOutwardCube) {
 }
 
 TEST(MeshGeometry, BoundaryOfLiverEnclosesItsVolume) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const auto tet = palpate::load_tet(palpate::test::data_mesh("liver.msh"));
   ASSERT_TRUE(tet.ok());
   const palpate::SurfaceMesh b = palpate::boundary_surface(*tet);

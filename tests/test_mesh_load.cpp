@@ -2,6 +2,7 @@
 #include <palpate/mesh.h>
 #include <palpate/mesh_load.h>
 
+#include "components.h"
 #include "mesh_test_files.h"
 
 #include <gtest/gtest.h>
@@ -68,6 +69,7 @@ void expect_unit_cube_tets(const palpate::TetMesh& m) {
 }
 
 TEST(MeshLoad, SharedLiverTetVariantsAgree) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const auto msh = palpate::load_tet(data_mesh("liver.msh"));
   ASSERT_TRUE(msh.ok()) << msh.error().message;
   EXPECT_EQ(msh->V.rows(), 181);
@@ -97,6 +99,7 @@ TEST(MeshLoad, ScaleMultipliesEveryCoordinate) {
 }
 
 TEST(MeshLoad, LiverObjSharesTheTetVertices) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const auto obj = palpate::load_surface(data_mesh("liver.obj"));
   ASSERT_TRUE(obj.ok()) << obj.error().message;
   const auto tet = palpate::load_tet(data_mesh("liver.msh"));
@@ -129,6 +132,7 @@ TEST(MeshLoad, LiverSmoothObjMergesCornersByPosition) {
 }
 
 TEST(MeshLoad, LiverTetBoundaryIsClosedAndEnclosesTheTetVolume) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const auto surf = palpate::load_surface(data_mesh("liver_tet_boundary.obj"), 1.0, {.manifold = true, .closed = true});
   ASSERT_TRUE(surf.ok()) << surf.error().message;
   EXPECT_EQ(surf->V.rows(), 140);
@@ -171,6 +175,7 @@ TEST(MeshLoad, InwardFacingClosedSurfaceIsTurnedOutward) {
 }
 
 TEST(MeshLoad, CubeInEveryTetFormat) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   for (const char* name : {"cube_v2.msh", "cube_v4.msh", "cube_v4_binary.msh", "cube_1based.node", "cube_1based.ele"}) {
     SCOPED_TRACE(name);
     const auto m = palpate::load_tet(test_mesh(name));
@@ -183,6 +188,7 @@ TEST(MeshLoad, CubeInEveryTetFormat) {
 // make_gmsh41.cpp): empty node blocks, physical points, $PartitionedEntities — none refused by the
 // checks made against damaged files, and each the same unit box.
 TEST(MeshLoad, GmshFilesAsGmshWritesThem) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   // Named physical groups ($PhysicalNames) in every file; format 2.2 as well, ASCII and binary.
   for (const char* name : {"box_gmsh41_saveall.msh", "box_gmsh41_saveall_binary.msh", "box_gmsh41_partitioned.msh",
                            "box_gmsh41_partitioned_binary.msh", "box_gmsh22_named.msh", "box_gmsh22_named_binary.msh"}) {

@@ -3,6 +3,7 @@
 #include <palpate/mesh_load.h>
 #include <palpate/meshing.h>
 
+#include "components.h"
 #include "mesh_test_files.h"
 #include "tissue/spring/shapes.h"
 
@@ -30,6 +31,7 @@ void expect_fills(const palpate::SurfaceMesh& surface, const palpate::TetMesh& t
 }
 
 TEST(MeshTetrahedralize, LiverBoundaryFillsTheLiverVolume) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const auto surface = palpate::load_surface(palpate::test::data_mesh("liver_tet_boundary.obj"), 1.0,
                                              {.manifold = true, .closed = true});
   ASSERT_TRUE(surface.ok()) << surface.error().message;
@@ -46,6 +48,7 @@ TEST(MeshTetrahedralize, LiverBoundaryFillsTheLiverVolume) {
 }
 
 TEST(MeshTetrahedralize, InwardFacingCubeStillGivesPositiveTets) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   palpate::SurfaceMesh cube = palpate::test::cube_surface();
   cube.F.col(1).swap(cube.F.col(2));
   const auto tets = palpate::tetrahedralize(cube, 0.4);
@@ -55,6 +58,7 @@ TEST(MeshTetrahedralize, InwardFacingCubeStillGivesPositiveTets) {
 }
 
 TEST(MeshTetrahedralize, UnusedVerticesAreLeftOut) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   palpate::SurfaceMesh cube = palpate::test::cube_surface();
   cube.V.conservativeResize(9, 3);
   cube.V.row(8) << 5, 5, 5;  // no triangle uses it
@@ -110,6 +114,7 @@ double mean_edge_near(const palpate::TetMesh& m, const palpate::Vec3& at, double
 // edges of 0.25 except near its centre, where they are 0.05. More vertices than the uniform fill,
 // tetrahedra several times smaller near the point than away from it, the same volume and boundary.
 TEST(MeshTetrahedralize, RefinementGradesTheFill) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const palpate::SurfaceMesh cube = palpate::boundary_surface(palpate::spring::make_block(5, 5, 5, 0.25));
   const auto uniform = palpate::tetrahedralize(cube, 0.25);
   ASSERT_TRUE(uniform.ok()) << uniform.error().message;

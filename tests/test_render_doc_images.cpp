@@ -3,6 +3,7 @@
 #include <palpate/render.h>
 #include <palpate/surface.h>
 
+#include "components.h"
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -44,6 +45,7 @@ void write(SurfaceScheme scheme, const std::filesystem::path& file) {
 }  // namespace
 
 TEST(DocImages, DISABLED_WriteSurfaceComparison) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   const std::filesystem::path dir = std::filesystem::path(PALPATE_SOURCE_DIR) / "docs" / "images";
   std::filesystem::create_directories(dir);
   write(SurfaceScheme::bezier, dir / "surface_bezier_dent.png");

@@ -5,6 +5,7 @@
 #include <palpate/tissue.h>
 #include <palpate/tissue_files.h>
 
+#include "components.h"
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -35,6 +36,7 @@ Frame render(const SceneDef& scene, std::vector<std::unique_ptr<Tissue>>& tissue
 }  // namespace
 
 TEST(RenderFrame, ProbeDentShowsWhereItPresses) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   auto scene = load_scene(PALPATE_SOURCE_DIR "/data/scenes/probe.yaml");
   ASSERT_TRUE(scene.ok()) << scene.error().message;
   scene->camera = CameraDef{};

@@ -6,6 +6,7 @@
 #define STB_IMAGE_STATIC
 #include <stb/stb_image.h>
 
+#include "components.h"
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -106,6 +107,7 @@ TEST(RenderOffscreen, ProjectionPutsTheTargetAtTheCentre) {
 }
 
 TEST(RenderOffscreen, SurfaceCoversExactlyWhereItProjects) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   const auto grid = flat_grid(4, 4, 0.01f);  // 3 cm square
   auto surface = palpate::tessellate_grid(grid, 4, 4, {palpate::SurfaceScheme::bezier, 4});
   ASSERT_TRUE(surface.ok());
@@ -139,6 +141,7 @@ TEST(RenderOffscreen, SurfaceCoversExactlyWhereItProjects) {
 }
 
 TEST(RenderOffscreen, ADentShowsAsAPixelDifferenceAroundIt) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   const int rows = 10, cols = 10;
   auto grid = flat_grid(rows, cols, 0.004f);
   auto tess = palpate::SurfaceTessellator::build(rows, cols, {palpate::SurfaceScheme::bezier, 8});
@@ -177,6 +180,7 @@ TEST(RenderOffscreen, ADentShowsAsAPixelDifferenceAroundIt) {
 }
 
 TEST(RenderOffscreen, TheForceArrowShowsWhereItPoints) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   const auto grid = flat_grid(4, 4, 0.01f);
   auto surface = palpate::tessellate_grid(grid, 4, 4, {palpate::SurfaceScheme::bezier, 4});
   ASSERT_TRUE(surface.ok());
@@ -217,6 +221,7 @@ TEST(RenderOffscreen, TheForceArrowShowsWhereItPoints) {
 }
 
 TEST(RenderOffscreen, ToolPointsAndLinesAppearInTheirColours) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   RenderScene s;
   s.camera = test_camera();
   s.supersample = 1;
@@ -260,6 +265,7 @@ TEST(RenderOffscreen, ToolPointsAndLinesAppearInTheirColours) {
 }
 
 TEST(RenderOffscreen, RenderingIsDeterministic) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   const auto grid = flat_grid(7, 7, 0.005f);
   auto surface = palpate::tessellate_grid(grid, 7, 7, {palpate::SurfaceScheme::bspline, 4});
   ASSERT_TRUE(surface.ok());
@@ -270,6 +276,7 @@ TEST(RenderOffscreen, RenderingIsDeterministic) {
 }
 
 TEST(RenderOffscreen, PngIsWrittenAtomicallyAndReadsBack) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   const auto dir = std::filesystem::temp_directory_path() / ("palpate_render_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);

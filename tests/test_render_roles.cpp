@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "components.h"
 #include "png_read.h"
 
 #include <cmath>
@@ -102,6 +103,7 @@ const std::filesystem::path kReference = std::filesystem::path(PALPATE_TEST_DATA
 // (fused multiply-add), so a channel may differ by 2 levels at most; a colour or drawing-order
 // change moves them by tens.
 TEST(RenderRoles, ARoleLessFrameIsDrawnAsBefore) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   Neckish n;
   n.tip = kReferenceTip, n.axis = kReferenceAxis;
   const Drawn d = draw(n, true);
@@ -138,6 +140,7 @@ TEST(RenderRoles, DISABLED_WriteRoleLessReference) {
 // away from them keeps a skin tone (red over green over blue, brighter than the background); the
 // PNG stays opaque.
 TEST(RenderRoles, VesselsShowThroughTheSkinInTheirColours) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   Neckish n;
   n.roles("skin", "vein", "artery");
   const Drawn d = draw(n, false);
@@ -177,6 +180,7 @@ TEST(RenderRoles, VesselsShowThroughTheSkinInTheirColours) {
 // The needle's shaft under the skin (from the tip up to where it crosses y = 0) is drawn: along
 // its projected line the pixels differ from the same frame without the needle, toward steel grey.
 TEST(RenderRoles, TheNeedleShowsUnderTheSkin) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   Neckish n;
   n.roles("skin", "vein", "artery");
   const Drawn with = draw(n, true), without = draw(n, false);

@@ -5,11 +5,13 @@
 #include <palpate/tissue.h>
 #include <palpate/tissue_files.h>
 
+#include "components.h"
 #include <gtest/gtest.h>
 
 #include <vector>
 
 TEST(SofaLiver, SagsToEquilibriumHeldByItsAnchors) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   auto scene = palpate::load_scene(PALPATE_SOURCE_DIR "/data/scenes/liver-springs.yaml");
   ASSERT_TRUE(scene.ok()) << scene.error().message;
   ASSERT_EQ(scene->tissues.size(), 1u);

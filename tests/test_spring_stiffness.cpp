@@ -6,6 +6,7 @@
 #include <palpate/spring.h>
 #include <palpate/meshing.h>
 
+#include "components.h"
 #include "spring_fixtures.h"
 #include "sanitized.h"
 #include "tissue/spring/shapes.h"
@@ -53,6 +54,7 @@ double hanging_sag(const TetMesh& mesh, double nu) {
 // (measured ν = 0.45: 0.257 / 0.270 mm, 4.9 %; ν = 0.48: 1.0 %). Not the 1-D bar's ρgL²/2E
 // (0.42 mm): a cube held by its whole top face is far from a bar.
 TEST(SpringStiffness, HangingBlockSagsTheSameOnTwoMeshes) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const TetMesh grid = spring::make_block(5, 5, 5, 0.005);
   auto gmsh = tetrahedralize(boundary_of(grid), 0.005);
   ASSERT_TRUE(gmsh.ok()) << gmsh.error().message;
@@ -105,6 +107,7 @@ std::vector<double> indent(const TetMesh& mesh, double nu, double R, const std::
 // between 0.5 and 1 mm, not Hertz's 1.5 — at that depth the contact is a few vertices of a 4 mm
 // mesh, and the block is finite (docs/models/mass-spring.md).
 TEST(SpringStiffness, SphereIndentationGivesTheSameForceOnTwoMeshes) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const TetMesh grid = spring::make_block(11, 11, 11, 0.004);
   auto gmsh = tetrahedralize(boundary_of(grid), 0.004);
   ASSERT_TRUE(gmsh.ok()) << gmsh.error().message;
@@ -132,6 +135,7 @@ TEST(SpringStiffness, SphereIndentationGivesTheSameForceOnTwoMeshes) {
 // docs/models/mass-spring.md, "Why the exponent is low"). Run with --gtest_also_run_disabled_tests
 // (about 95 s).
 TEST(SpringStiffness, DISABLED_IndentationExponentAgainstTheMeshSpacing) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const double R = 0.008, nu = 0.45;
   const std::vector<double> d = {0.00025, 0.0005, 0.001, 0.002};
   for (int n : {11, 21, 31}) {
@@ -167,6 +171,7 @@ double log_log_slope(const std::vector<double>& x, const std::vector<double>& y)
 // 3.1 mm: 3 to 6 fine spacings). The least-squares exponent of the force against the tissue's own
 // depth (the tool's travel minus the contact's F/k_c) is Hertz's 1.5 within 5 % on both meshes.
 TEST(SpringStiffness, SmallDepthIndentationFollowsHertzsExponentOnGradedMeshes) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   // Numerics on 21,780- and 7,754-vertex meshes settled 2,400 times: past 300 s under a sanitizer;
   // the Gmsh fill it uses is run under the sanitizers by MeshTetrahedralize.*.
   if (kSanitized) GTEST_SKIP() << "run by the release suite (sanitized.h)";

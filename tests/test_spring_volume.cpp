@@ -6,6 +6,7 @@
 #include <palpate/spring.h>
 #include <palpate/mesh_load.h>
 
+#include "components.h"
 #include "spring_fixtures.h"
 #include "tissue/spring/forces.h"
 #include "tissue/spring/layouts.h"
@@ -113,6 +114,7 @@ double rest_volume(const TetMesh& mesh) { return volumes(mesh, mesh.V).total; }
 // it. A 4.9 cm column of such tissue compresses about ρgH²/2E ≈ 3 mm: the largest displacement
 // must stay a few millimetres, no tetrahedron may invert and the volume must hold within 1 %.
 TEST(SpringVolume, SiLiverOnItsBedSagsMillimetresWithNoInvertedTetrahedron) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   const TetMesh mesh = si_liver();
   ASSERT_GT(mesh.T.rows(), 0);
   const double v0 = rest_volume(mesh);

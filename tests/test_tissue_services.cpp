@@ -6,6 +6,7 @@
 #include <palpate/tissue.h>
 #include <palpate/tissue_files.h>
 
+#include "components.h"
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -74,6 +75,7 @@ SceneDef spring_scene(const std::string& topology) {
 }
 
 TEST(TissueServices, AModelBuildsFromTheMeshItsBuilderHandsInNotFromTheFile) {
+  PALPATE_NEEDS(GMSH, "Gmsh");
   surface_calls = fill_calls = 0;
   stored.clear();
   TissueServices s;

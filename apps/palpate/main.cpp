@@ -14,7 +14,8 @@ namespace {
 
 int run_main(int argc, char** argv) {
   CLI::App app{"palpate: real-time soft-tissue deformation with force feedback"};
-  app.set_version_flag("--version", std::string("palpate ") + palpate::version());
+  app.set_version_flag("--version", std::string("palpate ") + palpate::version() +
+                                        "\ncomponents: " + palpate::components());
   app.require_subcommand(1);
   app.footer("Run `palpate COMMAND --help` for a command's options. Docs: docs/ in the source tree.");
   palpate::cli::add_run_command(app);

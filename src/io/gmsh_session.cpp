@@ -1,6 +1,7 @@
 // gmsh_session.cpp — Gmsh's one global session: initialised once, used under a lock, its messages
-// captured, reset after a failure (io/gmsh_session.h). With msh_check*.cpp and the fill in
-// src/meshing/, the only files that include gmsh.h.
+// captured, reset after a failure (io/gmsh_session.h); and the .msh reader's Gmsh side. With the
+// fill in src/meshing/fill_gmsh.cpp, the only files that include gmsh.h (built with
+// PALPATE_WITH_GMSH; gmsh_none.cpp replaces this file without it).
 #include "io/gmsh_session.h"
 
 #include <gmsh.h>
@@ -120,6 +121,15 @@ Result<TetMesh> current_tets(const std::string& where) {
   return mesh;
 }
 
-// Gmsh parses any file not starting with '$' as a .geo script (which can run commands): only a
+Result<TetMesh> gmsh_read_tets(const std::filesystem::path& file) {
+  const std::string where = file.string();
+  Result<TetMesh> mesh = Error{""};
+  const std::string errors = run_gmsh([&] {
+    gmsh::open(where);
+    mesh = current_tets(where);
+  });
+  if (!errors.empty()) return Error{fmt::format("{}: Gmsh could not read the mesh: {}", where, errors)};
+  return mesh;
+}
 
 }  // namespace palpate::io

@@ -1,5 +1,5 @@
 // remesh_cgal.cpp — CGAL isotropic remeshing of a surface (palpate/meshing.h; the only
-// file that includes CGAL).
+// file that includes CGAL). Built with PALPATE_WITH_CGAL; remesh_none.cpp replaces it without.
 #include <palpate/meshing.h>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>

@@ -26,6 +26,11 @@ TEST(Cli, VersionPrintsNameAndVersion) {
   Ran r = run("--version");
   EXPECT_EQ(r.code, 0);
   EXPECT_EQ(r.out.rfind("palpate 0.", 0), 0u) << r.out;
+  // And the optional components built in (README, Building by hand).
+  const std::string components = std::string("components: OSMesa ") + (PALPATE_HAS_OSMESA ? "yes" : "no") +
+                                 ", Gmsh " + (PALPATE_HAS_GMSH ? "yes" : "no") + ", CGAL " +
+                                 (PALPATE_HAS_CGAL ? "yes" : "no");
+  EXPECT_NE(r.out.find(components), std::string::npos) << r.out;
 }
 
 TEST(Cli, HelpListsEveryCommand) {

@@ -8,7 +8,7 @@
 #include <palpate/tissue_files.h>
 
 #include "haptics/patch_contact.h"
-#include "haptics/render_error.h"
+#include "render_error.h"
 #include "sanitized.h"
 #include "spring_fixtures.h"
 #include "tissue/spring/solve.h"

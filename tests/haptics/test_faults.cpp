@@ -12,6 +12,7 @@
 #include "haptics/doubles.h"
 #include "run_csv_rows.h"
 #include "haptics/fake_hd_client.h"
+#include "components.h"
 #include "shell_run.h"
 
 #include <gtest/gtest.h>
@@ -196,6 +197,7 @@ void remove_all_when_quiet(const fs::path& dir) {
 // SIGKILL at 24 seeded random moments of `palpate run` (12 headless, 12 realtime; with plots and
 // frames): every output is whole or absent, and the recording holds whole, consecutive rows.
 TEST(Faults, RunKilledAtRandomMomentsLeavesEveryOutputWholeOrAbsent) {
+  PALPATE_NEEDS_CLI();
   std::mt19937 rng(23);
   size_t kills = 0, with_csv = 0, with_part = 0, with_summary = 0, pngs = 0;
   for (const bool realtime : {false, true}) {
@@ -241,6 +243,7 @@ TEST(Faults, RunKilledAtRandomMomentsLeavesEveryOutputWholeOrAbsent) {
 // and the whole file cut at random lengths, put where the predictor goes, are refused with an
 // error naming it, never loaded.
 TEST(Faults, PredictorOfAKilledPrecomputeIsNeverLoadedHalfWritten) {
+  PALPATE_NEEDS_CLI();
   const fs::path dir = fs::temp_directory_path() / "palpate_test_faults_precompute";
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -348,6 +351,7 @@ TEST(Faults, PredictorOfAKilledPrecomputeIsNeverLoadedHalfWritten) {
 // An output directory that cannot be written: a clear error naming the path, exit status 1 or 2,
 // and nothing written there.
 TEST(Faults, UnwritableOutputDirectoryIsAClearError) {
+  PALPATE_NEEDS_CLI();
   const fs::path base = fs::temp_directory_path() / "palpate_test_faults_unwritable";
   fs::remove_all(base);
   fs::create_directories(base);

@@ -5,6 +5,7 @@
 #include <palpate/tissue.h>
 #include <palpate/scene.h>
 
+#include "components.h"
 #include "png_read.h"
 
 #include <gtest/gtest.h>
@@ -36,6 +37,7 @@ palpate::SceneDef probe_scene() {
 }  // namespace
 
 TEST(RunFrames, HeadlessFramesAreEvenlySpacedAndShowThePressAndTheReturn) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   // probe.yaml: approach (0–1 s), press to 5 mm (1–2 s), hold, release by 3.5 s, rest at 4 s.
   const palpate::SceneDef scene = probe_scene();
   const fs::path out = fs::temp_directory_path() / "palpate_test_run_frames";
@@ -74,6 +76,7 @@ TEST(RunFrames, HeadlessFramesAreEvenlySpacedAndShowThePressAndTheReturn) {
 }
 
 TEST(RunFrames, RealtimeFramesAreDrawnWhileTheLoopRuns) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
   palpate::SceneDef scene = probe_scene();
   const fs::path out = fs::temp_directory_path() / "palpate_test_run_frames_rt";
   // The run lasts long enough for the renderer to keep up: 0.6 s, or 8 frames' time where drawing

@@ -89,4 +89,10 @@ std::uint64_t fnv1a64(const void* data, std::size_t size) noexcept;
 // The library's version, "MAJOR.MINOR.PATCH".
 const char* version();
 
+// The optional components this palpate was built with (CMake options PALPATE_WITH_OSMESA, _GMSH,
+// _CGAL; README), each "yes" or "no": "OSMesa yes, Gmsh yes, CGAL yes". Without one, the functions
+// that need it fail with an error naming the option. Code compiled against palpate sees the same
+// as PALPATE_HAS_OSMESA, PALPATE_HAS_GMSH and PALPATE_HAS_CGAL (1 or 0).
+std::string components();
+
 }  // namespace palpate

@@ -22,6 +22,8 @@ Result<SurfaceMesh> load_surface(const std::filesystem::path& file, double scale
 // quadratic elements keep their corners), legacy ASCII VTK unstructured grid (.vtk, file versions
 // up to 5.1; cells of type 10 kept). Validated: no empty mesh, no NaN/Inf, indices in range, no
 // degenerate or inverted tetrahedra. Errors name the file, and the line where the reader knows it.
+// Built without Gmsh (PALPATE_WITH_GMSH=OFF), a .msh file that passes palpate's own checks is
+// refused with an error naming the option.
 Result<TetMesh> load_tet(const std::filesystem::path& file, double scale = 1.0);
 
 }  // namespace palpate

@@ -1,6 +1,8 @@
 // palpate/meshing.h — meshes made from meshes (the meshing layer, above io): a closed surface
 // filled with tetrahedra (Gmsh) and a surface remeshed isotropically (CGAL). Tissue models never
-// call these: the Simulation's builder does, and hands the tissue the mesh it made.
+// call these: the Simulation's builder does, and hands the tissue the mesh it made. In a build
+// without Gmsh or CGAL (PALPATE_WITH_GMSH, PALPATE_WITH_CGAL OFF) each fails, after its checks, with
+// an error naming the option.
 #pragma once
 
 #include <palpate/core.h>

@@ -82,7 +82,8 @@ inline constexpr int kMaxOffscreenSide = 4096;  // pixels
 // Draw the scene off-screen (no window, no GPU). Fails, naming the element and what was
 // expected, on a bad camera (size outside 1..4096 pixels, fov outside (0, 180) degrees, position
 // equal to target, non-finite values), a span whose size is not a multiple of 3, normals not
-// matching positions, an index out of range, an unknown tool kind; or when OpenGL is unavailable.
+// matching positions, an index out of range, an unknown tool kind; or when OpenGL is unavailable
+// (a build without OSMesa, PALPATE_WITH_OSMESA=OFF: the scene is checked, then refused naming it).
 Result<Image> render_rgba(const RenderScene& scene);
 
 // render_rgba, then write_png (palpate/image.h).

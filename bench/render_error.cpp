@@ -1,6 +1,6 @@
 // render_error.cpp — the scripted probing of an organ, synchronous and multi-rate, and the force
 // error between them (issue 24).
-#include "haptics/render_error.h"
+#include "render_error.h"
 
 #include "tissue/spring/shapes.h"
 

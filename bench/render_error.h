@@ -2,7 +2,8 @@
 // same scripted probing (press, slide, release) of a mass-spring organ run fully synchronously
 // (a full step every tick) and through a PhysicsWorker stepping inline at a physics rate, with the
 // force rendered between its steps by the compliance solve or the secant linearisation. Shared by
-// the test (tests/haptics/test_contact_compliance.cpp) and the benchmark (bench/bench_contact_render.cpp).
+// the test (tests/haptics/test_contact_compliance.cpp) and the benchmark (bench/bench_contact_render.cpp):
+// benchmark code, not the library's (the static palpate_render_error, bench/CMakeLists.txt).
 #pragma once
 
 #include <palpate/spring.h>
