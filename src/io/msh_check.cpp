@@ -39,6 +39,8 @@ Status check_msh_header(const std::filesystem::path& file) {
 }
 
 
+namespace {
+
 // Gmsh 4.8's ASCII format-4 reader trusts each section's totals and writes past its arrays when
 // the blocks hold more than the total promised (found by fuzzing: a one-digit change crashes
 // it). Check that the blocks of $Nodes and $Elements add up to their totals and that tags lie
@@ -191,6 +193,8 @@ Status check_msh4_binary_block_sums(std::string_view body, bool nodes, int line,
   return {};
 }
 
+}  // namespace
+
 // The int 1 after a binary file's format line (`line`): Gmsh takes anything else for a file of the
 // other byte order and swaps every count it reads (found by fuzzing: a damaged one made it ask for
 // 2^58 bytes). palpate's checks read little-endian, as Gmsh writes on every machine it ships for.
@@ -219,6 +223,8 @@ std::string section_shown(std::string_view name) {
   shown += printable(name);
   return shown;
 }
+
+namespace {
 
 // The format version Gmsh 4.8 reads a file as (GModel::readMSH): 1 for a file whose first line
 // opens $NOD or $NOE, otherwise the first number after the first section named $MeshFormat;
@@ -485,6 +491,8 @@ Status check_msh4(const std::string& t, double max_count, const std::string& nam
   }
   return {};
 }
+
+}  // namespace
 
 Status check_msh_counts(const std::filesystem::path& file) {
   Result<std::string> text = read_whole_file(file);

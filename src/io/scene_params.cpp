@@ -2,6 +2,8 @@
 // (src/core/params_scene.cpp and beside it).
 #include "io/scene_params.h"
 
+#include <palpate/scene.h>
+
 #include <palpate/charged_def.h>
 #include <palpate/spring_def.h>
 
