@@ -263,6 +263,7 @@ struct TissueView {
   Tissue& tissue() const { return core->sim->tissue(index); }
   const TissueDef& def() const { return core->sim->scene().tissues[index]; }
   const ChargedLayer* charged() const { return tissue().charged_layer(); }
+  const SpringBody* spring() const { return tissue().spring_body(); }
   size_t count() const {
     if (const ChargedLayer* c = charged()) return c->state->x.size();
     return core->spring_rest[index].size() / 3;
@@ -671,8 +672,9 @@ PYBIND11_MODULE(_palpate, m) {
       .def_property_readonly("model", [](const TissueView& t) { return t.def().model; })
       .def_property_readonly("role", [](const TissueView& t) { return t.def().role; })
       .def_property_readonly("count", &TissueView::count, "Particles (charged) or masses (mass-spring).")
-      .def_property_readonly("layout", [](const TissueView& t) { return t.charged() ? "soa" : "copy"; },
-                             "'soa': x, y, z are views (n,) float32; 'copy': positions is a (n, 3) copy.")
+      .def_property_readonly("layout", [](const TissueView& t) { return t.charged() ? "soa" : t.spring() ? "aos" : "copy"; },
+                             "'soa': x, y, z are views (n,) float32; 'aos': positions and velocities are (n, 3) "
+                             "float64 views (mass-spring); 'copy': positions is a (n, 3) copy (another model).")
       .def_property_readonly("x", [](const TissueView& t) -> py::object {
             const ChargedLayer* c = t.charged();
             if (!c) return py::none();
@@ -694,6 +696,10 @@ PYBIND11_MODULE(_palpate, m) {
               return py::make_tuple(view(t.core, c->state->x.data(), {n}), view(t.core, c->state->y.data(), {n}),
                                     view(t.core, c->state->z.data(), {n}));
             }
+            if (const SpringBody* b = t.spring()) {
+              const RowMat3d& x = b->state->x;
+              return view(t.core, x.data(), {py::ssize_t(x.rows()), py::ssize_t(3)});
+            }
             TissueSnapshot snap;
             t.tissue().snapshot(snap);
             py::array_t<float> a({py::ssize_t(snap.points.size()), py::ssize_t(3)});
@@ -702,19 +708,31 @@ PYBIND11_MODULE(_palpate, m) {
               p[3 * i] = snap.points[i].x(), p[3 * i + 1] = snap.points[i].y(), p[3 * i + 2] = snap.points[i].z();
             return a;
           },
-          "Charged: (x, y, z), three (n,) float32 views. Mass-spring: a (n, 3) float32 copy (the model's "
-          "state is not reachable through the Tissue interface yet; docs/python.md).")
+          "Charged: (x, y, z), three (n,) float32 views. Mass-spring: a (n, 3) float64 view of its state's "
+          "positions (SpringState::x).")
+      .def_property_readonly("velocities", [](const TissueView& t) -> py::object {
+            const SpringBody* b = t.spring();
+            if (!b) return py::none();
+            const RowMat3d& v = b->state->v;
+            return view(t.core, v.data(), {py::ssize_t(v.rows()), py::ssize_t(3)});
+          },
+          "m/s. Mass-spring: a (n, 3) float64 view of its state's velocities (SpringState::v). Charged: None "
+          "(its particles carry no velocity).")
       .def_property_readonly("rest_positions", [](const TissueView& t) -> py::object {
             if (const ChargedLayer* c = t.charged()) {
               const auto n = py::ssize_t(c->model->origin_x.size());
               return py::make_tuple(view(t.core, c->model->origin_x.data(), {n}), view(t.core, c->model->origin_y.data(), {n}),
                                     view(t.core, c->model->origin_z.data(), {n}));
             }
+            if (const SpringBody* b = t.spring()) {
+              const RowMat3d& r = b->model->network.rest;
+              return view(t.core, r.data(), {py::ssize_t(r.rows()), py::ssize_t(3)});
+            }
             const auto& r = t.core->spring_rest[t.index];
             return view(t.core, r.data(), {py::ssize_t(r.size() / 3), py::ssize_t(3)});
           },
-          "Charged: the model's origins (x, y, z), (n,) float32 views. Mass-spring: (n, 3) float32, copied once "
-          "at build (a view of that copy).")
+          "Charged: the model's origins (x, y, z), (n,) float32 views. Mass-spring: a (n, 3) float64 view of its "
+          "network's rest positions.")
       .def_property_readonly("flags", [](const TissueView& t) -> py::object {
             const ChargedLayer* c = t.charged();
             if (!c) return py::none();
