@@ -7,6 +7,7 @@ find_package(CLI11 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(spdlog REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
+find_package(TinyGLTF REQUIRED)  # libtinygltf-dev: the glTF export (src/io/export_gltf.cpp)
 find_package(CGAL REQUIRED)  # isotropic remeshing for particles laid on a mesh (header-only)
 
 
