@@ -7,6 +7,7 @@ find_package(CLI11 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(spdlog REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
+find_package(TinyGLTF REQUIRED)  # libtinygltf-dev: the glTF export (src/io/export_gltf.cpp)
 
 # The optional components (PALPATE_WITH_OSMESA, _GMSH, _CGAL): each is an interface target the
 # layers link privately (palpate_osmesa, palpate_gmsh, palpate_cgal); one built without is empty:

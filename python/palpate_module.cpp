@@ -263,6 +263,7 @@ struct TissueView {
   Tissue& tissue() const { return core->sim->tissue(index); }
   const TissueDef& def() const { return core->sim->scene().tissues[index]; }
   const ChargedLayer* charged() const { return tissue().charged_layer(); }
+  const SpringBody* spring() const { return tissue().spring_body(); }
   size_t count() const {
     if (const ChargedLayer* c = charged()) return c->state->x.size();
     return core->spring_rest[index].size() / 3;
@@ -563,11 +564,13 @@ py::list precompute(const std::filesystem::path& input, std::optional<std::files
 }
 
 py::dict summary_dict(const RunSummary& s) {
-  py::list events, frames, us, plots, physics, tools;
+  py::list events, frames, us, plots, physics, tools, exports, export_files;
   for (const RunEvent& e : s.events)
     events.append(py::dict("time"_a = e.time, "kind"_a = e.kind, "tissue"_a = e.tissue, "depth"_a = e.depth, "force"_a = e.force));
   for (const RunFrame& f : s.frames) frames.append(py::dict("time"_a = f.time, "file"_a = f.file));
   for (const RunFrame& f : s.ultrasound) us.append(py::dict("time"_a = f.time, "file"_a = f.file));
+  for (const RunFrame& f : s.exports) exports.append(py::dict("time"_a = f.time, "file"_a = f.file));
+  for (const auto& f : s.export_files) export_files.append(py::cast(f));
   for (const auto& p : s.plots) plots.append(py::cast(p));
   for (const LoopToolStats& t : s.tools)
     tools.append(py::dict("name"_a = t.name, "max_force"_a = t.max_force, "max_force_limit"_a = t.max_force_limit,
@@ -582,14 +585,16 @@ py::dict summary_dict(const RunSummary& s) {
                   "recorder_dropped"_a = s.recorder_dropped, "events"_a = events, "metrics"_a = metrics_dict(s.metrics),
                   "csv"_a = s.csv, "summary_json"_a = s.summary_json, "plots"_a = plots, "plot_error"_a = s.plot_error,
                   "frames"_a = frames, "frame_error"_a = s.frame_error, "ultrasound"_a = us,
-                  "ultrasound_error"_a = s.ultrasound_error, "tools"_a = tools, "physics"_a = physics,
+                  "ultrasound_error"_a = s.ultrasound_error, "exports"_a = exports, "export_files"_a = export_files,
+                  "export_error"_a = s.export_error, "tools"_a = tools, "physics"_a = physics,
                   "tissues"_a = s.tissue_names);
 }
 
 // `palpate run`: the scene with its own devices for its duration, outputs under `out`; the summary.
 py::dict run(const PyScene& scene_in, std::optional<std::filesystem::path> out, std::optional<std::filesystem::path> cache,
              bool realtime, std::optional<std::string> device, std::optional<std::filesystem::path> recording,
-             std::optional<std::string> coupling, double physics_rate, int frames, int ultrasound, bool plots) {
+             std::optional<std::string> coupling, double physics_rate, int frames, int ultrasound, bool plots,
+             const py::object& exports, double export_every) {
   SceneDef scene = scene_in.def;
   if (device) scene.device.kind = *device;
   if (recording) {
@@ -606,6 +611,14 @@ py::dict run(const PyScene& scene_in, std::optional<std::filesystem::path> out, 
   if (physics_rate > 0) opt.physics_dt.assign(scene.tissues.size(), 1.0 / physics_rate);
   opt.frames = frames;
   opt.ultrasound = ultrasound;
+  // export: "vtu", "gltf", or a list of them (docs/export.md).
+  if (py::isinstance<py::str>(exports)) opt.exports.push_back(exports.cast<std::string>());
+  else if (!exports.is_none()) opt.exports = exports.cast<std::vector<std::string>>();
+  for (const std::string& f : opt.exports)
+    if (f != "vtu" && f != "gltf") throw py::value_error("export: '" + f + "' is not an export format (vtu, gltf)");
+  if (!(export_every > 0) || !std::isfinite(export_every))
+    throw py::value_error("export_every: " + std::to_string(export_every) + " s, expected a time > 0");
+  opt.export_every = export_every;
   std::optional<Result<RunSummary>> r;
   {
     py::gil_scoped_release nogil;  // the whole run; Python is never called from it
@@ -671,8 +684,9 @@ PYBIND11_MODULE(_palpate, m) {
       .def_property_readonly("model", [](const TissueView& t) { return t.def().model; })
       .def_property_readonly("role", [](const TissueView& t) { return t.def().role; })
       .def_property_readonly("count", &TissueView::count, "Particles (charged) or masses (mass-spring).")
-      .def_property_readonly("layout", [](const TissueView& t) { return t.charged() ? "soa" : "copy"; },
-                             "'soa': x, y, z are views (n,) float32; 'copy': positions is a (n, 3) copy.")
+      .def_property_readonly("layout", [](const TissueView& t) { return t.charged() ? "soa" : t.spring() ? "aos" : "copy"; },
+                             "'soa': x, y, z are views (n,) float32; 'aos': positions and velocities are (n, 3) "
+                             "float64 views (mass-spring); 'copy': positions is a (n, 3) copy (another model).")
       .def_property_readonly("x", [](const TissueView& t) -> py::object {
             const ChargedLayer* c = t.charged();
             if (!c) return py::none();
@@ -694,6 +708,10 @@ PYBIND11_MODULE(_palpate, m) {
               return py::make_tuple(view(t.core, c->state->x.data(), {n}), view(t.core, c->state->y.data(), {n}),
                                     view(t.core, c->state->z.data(), {n}));
             }
+            if (const SpringBody* b = t.spring()) {
+              const RowMat3d& x = b->state->x;
+              return view(t.core, x.data(), {py::ssize_t(x.rows()), py::ssize_t(3)});
+            }
             TissueSnapshot snap;
             t.tissue().snapshot(snap);
             py::array_t<float> a({py::ssize_t(snap.points.size()), py::ssize_t(3)});
@@ -702,19 +720,31 @@ PYBIND11_MODULE(_palpate, m) {
               p[3 * i] = snap.points[i].x(), p[3 * i + 1] = snap.points[i].y(), p[3 * i + 2] = snap.points[i].z();
             return a;
           },
-          "Charged: (x, y, z), three (n,) float32 views. Mass-spring: a (n, 3) float32 copy (the model's "
-          "state is not reachable through the Tissue interface yet; docs/python.md).")
+          "Charged: (x, y, z), three (n,) float32 views. Mass-spring: a (n, 3) float64 view of its state's "
+          "positions (SpringState::x).")
+      .def_property_readonly("velocities", [](const TissueView& t) -> py::object {
+            const SpringBody* b = t.spring();
+            if (!b) return py::none();
+            const RowMat3d& v = b->state->v;
+            return view(t.core, v.data(), {py::ssize_t(v.rows()), py::ssize_t(3)});
+          },
+          "m/s. Mass-spring: a (n, 3) float64 view of its state's velocities (SpringState::v). Charged: None "
+          "(its particles carry no velocity).")
       .def_property_readonly("rest_positions", [](const TissueView& t) -> py::object {
             if (const ChargedLayer* c = t.charged()) {
               const auto n = py::ssize_t(c->model->origin_x.size());
               return py::make_tuple(view(t.core, c->model->origin_x.data(), {n}), view(t.core, c->model->origin_y.data(), {n}),
                                     view(t.core, c->model->origin_z.data(), {n}));
             }
+            if (const SpringBody* b = t.spring()) {
+              const RowMat3d& r = b->model->network.rest;
+              return view(t.core, r.data(), {py::ssize_t(r.rows()), py::ssize_t(3)});
+            }
             const auto& r = t.core->spring_rest[t.index];
             return view(t.core, r.data(), {py::ssize_t(r.size() / 3), py::ssize_t(3)});
           },
-          "Charged: the model's origins (x, y, z), (n,) float32 views. Mass-spring: (n, 3) float32, copied once "
-          "at build (a view of that copy).")
+          "Charged: the model's origins (x, y, z), (n,) float32 views. Mass-spring: a (n, 3) float64 view of its "
+          "network's rest positions.")
       .def_property_readonly("flags", [](const TissueView& t) -> py::object {
             const ChargedLayer* c = t.charged();
             if (!c) return py::none();
@@ -812,10 +842,14 @@ PYBIND11_MODULE(_palpate, m) {
         "anchors"_a = std::vector<int>{}, "`palpate precompute`: write mass-spring predictors; a list of dicts.");
   m.def("run", [](const py::object& scene, std::optional<std::filesystem::path> out, std::optional<std::filesystem::path> cache,
                   bool realtime, std::optional<std::string> device, std::optional<std::filesystem::path> recording,
-                  std::optional<std::string> coupling, double physics_rate, int frames, int ultrasound, bool plots) {
-          return run(to_scene(scene), out, cache, realtime, device, recording, coupling, physics_rate, frames, ultrasound, plots);
+                  std::optional<std::string> coupling, double physics_rate, int frames, int ultrasound, bool plots,
+                  const py::object& exports, double export_every) {
+          return run(to_scene(scene), out, cache, realtime, device, recording, coupling, physics_rate, frames, ultrasound, plots,
+                     exports, export_every);
         },
         "scene"_a, "out"_a = py::none(), "cache"_a = py::none(), "realtime"_a = false, "device"_a = py::none(),
         "recording"_a = py::none(), "coupling"_a = py::none(), "physics_rate"_a = 0.0, "frames"_a = 0, "ultrasound"_a = 0,
-        "plots"_a = true, "`palpate run`: the scene with its devices for its duration (GIL released); the summary.");
+        "plots"_a = true, "export"_a = py::none(), "export_every"_a = 0.1,
+        "`palpate run`: the scene with its devices for its duration (GIL released); the summary. "
+        "export: 'vtu', 'gltf' or both in a list (docs/export.md), a state every export_every s.");
 }

@@ -7,6 +7,7 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <csignal>
@@ -66,6 +67,8 @@ struct RunArgs {
   int frames = 0;
   int ultrasound = 0;
   std::vector<double> frame_times, ultrasound_times;  // s; instead of the counts
+  std::vector<std::string> exports;  // vtu, gltf
+  double export_every = 0.1;         // s
   FrameOptions frame;
 };
 
@@ -99,6 +102,8 @@ int run_command(const RunArgs& a) {
   opt.frame_times = a.frame_times;
   opt.ultrasound_times = a.ultrasound_times;
   opt.frame_options = a.frame;
+  opt.exports = a.exports;
+  opt.export_every = a.export_every;
   const bool bar = !a.quiet && stderr_is_terminal();
   if (bar) {
     opt.progress = [](double f) {
@@ -190,6 +195,17 @@ int run_command(const RunArgs& a) {
       }
     };
     list(s.ultrasound);
+    if (!s.exports.empty()) {
+      fmt::print("exports    {} states, t = {:.3f} ... {:.3f} s: ", s.exports.size(), s.exports.front().time,
+                 s.exports.back().time);
+      std::string names;
+      for (const auto& f : s.export_files)
+        if (f.extension() != ".vtu") names += (names.empty() ? "" : ", ") + f.string();
+      const size_t vtus = size_t(std::count_if(s.export_files.begin(), s.export_files.end(),
+                                               [](const auto& f) { return f.extension() == ".vtu"; }));
+      if (vtus > 0) names += fmt::format(" ({} .vtu files)", vtus);
+      fmt::print("{}\n", names);
+    }
   }
   if (!s.plot_error.empty()) fmt::print(stderr, "palpate run: no plots: {}\n", s.plot_error);
   // A tissue whose step failed on every tick (a predictor that resets it each step) sent no force
@@ -201,6 +217,10 @@ int run_command(const RunArgs& a) {
   }
   if (!s.frame_error.empty()) {
     fmt::print(stderr, "palpate run: frames: {}\n", s.frame_error);
+    return 1;
+  }
+  if (!s.export_error.empty()) {
+    fmt::print(stderr, "palpate run: exports: {}\n", s.export_error);
     return 1;
   }
   if (s.interrupted) {
@@ -260,6 +280,25 @@ void add_run_command(CLI::App& app) {
                         ->delimiter(',');
   ft->excludes("--frames");
   ut->excludes("--ultrasound");
+  CLI::Option* ex = run->add_option("--export", args->exports,
+                                    "Export the run (docs/export.md): vtu (run.pvd + vtu/*.vtu for ParaView), "
+                                    "gltf (run.glb, an animated scene for a browser), or vtu,gltf")
+                        ->delimiter(',')
+                        ->check(CLI::IsMember({"vtu", "gltf"}));
+  run->add_option("--export-every", args->export_every,
+                  "Exports: a state every SECONDS of the run (default 0.1), besides t = 0 and the end")
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            double t = 0;
+            try {
+              t = std::stod(v);
+            } catch (...) {
+              return "expected a time in seconds, not '" + v + "'";
+            }
+            return std::isfinite(t) && t > 0 ? std::string() : "expected a time > 0 s, not " + v;
+          },
+          "SECONDS > 0"))
+      ->needs(ex);
   run->add_flag("--frame-particles", args->frame.particles, "Frames: draw the particles / masses");
   run->add_flag("--frame-links", args->frame.links, "Frames: draw neighbour links / springs");
   run->add_option("--frame-resolution", args->frame.resolution,

@@ -44,7 +44,7 @@ def sag(youngs_modulus, ticks, radius=0.03, spacing=0.01, dt=0.001, cache=None):
     """(mean sag in m, settled) after `ticks` ticks under gravity alone."""
     sim = palpate.Simulation(ball(youngs_modulus, radius, spacing, dt), cache=cache, record=False)
     organ = sim.tissue("organ")
-    rest = organ.rest_positions  # (n, 3): mass-spring positions are copies (docs/python.md)
+    rest = organ.rest_positions  # (n, 3) float64: mass-spring positions are views (docs/python.md)
     sim.advance(ticks)  # the tool stays far above
     drop = float(np.mean(rest[:, 1] - organ.positions[:, 1]))
     return drop, organ.figures()["kinetic_energy_J"] < 1e-8

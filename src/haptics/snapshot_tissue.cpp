@@ -26,10 +26,16 @@ SnapshotTissue::SnapshotTissue(std::unique_ptr<Tissue> inner) : inner_(std::move
     reserve_headroom(s.rows_cols, first.rows_cols.size());
     reserve_headroom(s.triangles, first.triangles.size());
     reserve_headroom(s.links, first.links.size());
+    reserve_headroom(s.velocities, first.velocities.size());
+    reserve_headroom(s.loads, first.loads.size());
+    reserve_headroom(s.punctured, first.punctured.size());
     s.points = first.points;
     s.rows_cols = first.rows_cols;
     s.triangles = first.triangles;
     s.links = first.links;
+    s.velocities = first.velocities;
+    s.loads = first.loads;
+    s.punctured = first.punctured;
   }
 }
 
@@ -47,8 +53,9 @@ Vec3 SnapshotTissue::step(const ToolState& tool, double dt) noexcept {
 
 void SnapshotTissue::copy_into_back(const SnapshotStamp& stamp) noexcept {
   TissueSnapshot& s = slots_[back_];
-  const size_t caps[4] = {s.points.capacity(), s.rows_cols.capacity(), s.triangles.capacity(),
-                          s.links.capacity()};
+  const size_t caps[7] = {s.points.capacity(), s.rows_cols.capacity(), s.triangles.capacity(),
+                          s.links.capacity(),  s.velocities.capacity(), s.loads.capacity(),
+                          s.punctured.capacity()};
   try {
     inner_->snapshot(s);
   } catch (...) {
@@ -58,7 +65,8 @@ void SnapshotTissue::copy_into_back(const SnapshotStamp& stamp) noexcept {
     return;
   }
   if (s.points.capacity() != caps[0] || s.rows_cols.capacity() != caps[1] ||
-      s.triangles.capacity() != caps[2] || s.links.capacity() != caps[3]) {
+      s.triangles.capacity() != caps[2] || s.links.capacity() != caps[3] || s.velocities.capacity() != caps[4] ||
+      s.loads.capacity() != caps[5] || s.punctured.capacity() != caps[6]) {
     growths_.fetch_add(1, std::memory_order_relaxed);
   }
   stamps_[back_] = stamp;

@@ -9,6 +9,7 @@
 #include <palpate/tissue.h>
 #include <palpate/ultrasound.h>
 
+#include "simulation/export_run.h"
 #include "simulation/plots.h"
 
 #include <fmt/format.h>
@@ -36,7 +37,8 @@ namespace {
 // each of these + ".part" or ".tmp-...".
 bool is_run_output(const std::string& name) {
   static const char* const kFixed[] = {"run.csv", "summary.json", "force_time.png", "force_depth.png",
-                                       "force.dat", "plots.gp", "plots.log", "run.csv.part.series"};
+                                       "force.dat", "plots.gp", "plots.log", "run.csv.part.series",
+                                       "run.pvd", "run.glb"};
   for (const char* f : kFixed)
     if (name == f || name.rfind(std::string(f) + ".tmp-", 0) == 0) return true;
   // Numbered images: frame_NNN.png (frames) and us_NNN.png (ultrasound), and their temporary forms.
@@ -118,7 +120,7 @@ SimulationOptions run_simulation_options(const SceneDef& scene, const RunOptions
   // scene's `vein` tissue hands its particles over the same way.
   bool vein = scene.anatomy.has_value();  // the neck's ijv
   for (const TissueDef& t : scene.tissues) vein = vein || t.role == "vein";
-  so.snapshots = options.frames > 0 || !options.frame_times.empty() ||
+  so.snapshots = options.frames > 0 || !options.frame_times.empty() || !options.exports.empty() ||
                  ((options.ultrasound > 0 || !options.ultrasound_times.empty()) && vein);
   return so;
 }
@@ -185,6 +187,45 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
   const size_t nus = us_ticks->size();
   if (nframes > 0 && !sim.options().snapshots)
     return Error{where + ": frames need a simulation built with snapshots (run_simulation_options)"};
+  // Exports: t = 0 (before the first tick), then the tick nearest every export_every s, and the end.
+  const bool exporting = !options.exports.empty();
+  std::vector<std::uint64_t> export_ticks;
+  if (exporting) {
+    if (!sim.options().snapshots)
+      return Error{where + ": exports need a simulation built with snapshots (run_simulation_options)"};
+    if (!std::isfinite(options.export_every) || !(options.export_every > 0))
+      return Error{where + ": export_every: " + fmt::format("{}", options.export_every) + " s, expected a time > 0"};
+    for (std::uint64_t k = 1;; ++k) {
+      const auto tick = static_cast<std::uint64_t>(std::llround(double(k) * options.export_every / dt));
+      if (tick > ticks) break;
+      if (tick >= 1 && (export_ticks.empty() || tick > export_ticks.back())) export_ticks.push_back(tick);
+      if (k > ticks) break;
+    }
+    if (ticks > 0 && (export_ticks.empty() || export_ticks.back() != ticks)) export_ticks.push_back(ticks);
+  }
+  // What is taken after which tick: frames and exports, merged (a tick may have both).
+  struct Capture {
+    std::uint64_t tick = 0;
+    long frame = -1;     // the frame's number, or −1
+    bool exp = false;    // an export
+    bool pose = false;   // the tools' first pose (the exports' t = 0 state has none of its own)
+  };
+  std::vector<Capture> captures;
+  if (exporting && ticks > 0) {
+    captures.push_back({1, -1, false, true});
+    if (!export_ticks.empty() && export_ticks.front() == 1) captures.back().exp = true, export_ticks.erase(export_ticks.begin());
+    if (nframes > 0 && (*frame_ticks)[0] == 1) captures.back().frame = 0;
+  }
+  for (size_t a = captures.empty() || captures[0].frame < 0 ? 0 : 1, b = 0; a < nframes || b < export_ticks.size();) {
+    const std::uint64_t ta = a < nframes ? (*frame_ticks)[a] : UINT64_MAX;
+    const std::uint64_t tb = b < export_ticks.size() ? export_ticks[b] : UINT64_MAX;
+    Capture c;
+    c.tick = std::min(ta, tb);
+    if (ta == c.tick) c.frame = long(a++);
+    if (tb == c.tick) c.exp = true, ++b;
+    captures.push_back(c);
+  }
+  const size_t ncap = captures.size();
   const size_t ntissues = sim.tissue_count();
   std::vector<SnapshotTissue*> snaps;
   if (sim.options().snapshots)
@@ -193,17 +234,20 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
   // The vein (the scene's first `vein` tissue) for the ultrasound images.
   const int vein = nus > 0 && ntissues == scene.tissues.size() && sim.options().snapshots ? sim.tissue_with_role("vein") : -1;
 
-  // Frame k is taken after frame_target(k) ticks (image_ticks).
-  auto frame_target = [&](size_t k) { return (*frame_ticks)[k]; };
+  // Capture k (a frame, an export or both) is taken after frame_target(k) ticks.
+  auto frame_target = [&](size_t k) { return captures[k].tick; };
   const int digits = nframes > 1000 ? int(std::to_string(nframes - 1).size()) : 3;
   std::vector<RunFrame> frames;
   std::string frame_error;
   HapticLoop* loop_ptr = nullptr;  // set once the loop is built: the frames draw the probe's pose
   std::vector<TissueSnapshot> frame_snaps(snaps.size());
-  // Draw frame k from the newest copies; `direct`: nothing steps the tissues now (headless, or the
-  // realtime loop has ended), so a tissue that has not published since the request (a multi-rate
-  // one, or every tissue once the loop stopped) is copied now, stamped with its last step.
-  auto take_frame = [&](size_t k, bool direct) {
+  std::unique_ptr<RunExporter> exporter;
+  std::string export_error;
+  // Capture k from the newest copies: its frame drawn, its export saved; `direct`: nothing steps
+  // the tissues now (headless, or the realtime loop has ended), so a tissue that has not published
+  // since the request (a multi-rate one, or every tissue once the loop stopped) is copied now,
+  // stamped with its last step.
+  auto take_frame = [&](size_t c, bool direct) {
     SnapshotStamp tool;
     Vec3 force = Vec3::Zero();
     for (size_t i = 0; i < snaps.size(); ++i) {
@@ -217,7 +261,31 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
       force += st.force;
       if (st.stepped && (!tool.stepped || st.time > tool.time)) tool = st;
     }
-    if (!frame_error.empty()) return;
+    if ((captures[c].exp || captures[c].pose) && exporter && export_error.empty()) {
+      std::vector<ExportToolSample> ts;
+      for (const SimulationTool& t : sim.tools()) {
+        const ToolSample s = loop_ptr->tool_sample(t.loop_index);
+        ts.push_back({s.valid, s.position, s.orientation, s.axis, s.force});
+        // Realtime: the loop may have ticked on since the tissues' copy; the tool the tissues saw
+        // then is the copy's own (its tip, axis, and their force on it, before the safety filter).
+        if (t.loop_index == 0 && tool.stepped && std::abs(s.time - tool.time) > 0.5 * dt) {
+          ts.back().valid = true;
+          ts.back().position = tool.tip;
+          ts.back().axis = tool.axis;
+          ts.back().force = force;
+        }
+      }
+      if (captures[c].pose)
+        if (Status s = exporter->first_pose(ts); !s) export_error = s.error().message;
+      // The time of the tissues' copy (the tick it was taken after); the tools' newest tick when
+      // none stepped (headless: the same tick).
+      const ToolSample s0 = loop_ptr->tool_sample(0);
+      const double when = tool.stepped ? tool.time : s0.time;
+      if (captures[c].exp && export_error.empty())
+        if (Status s = exporter->add(when, frame_snaps, ts); !s) export_error = s.error().message;
+    }
+    if (captures[c].frame < 0 || !frame_error.empty()) return;
+    const size_t k = size_t(captures[c].frame);
     const fs::path file = out / fmt::format("frame_{:0{}}.png", k, digits);
     const std::optional<Vec3> axis = tool.stepped ? std::optional<Vec3>(tool.axis) : std::nullopt;
     std::optional<FrameProbe> probe;
@@ -248,11 +316,22 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
                    "; shorten duration, raise dt or choose another output directory"};
   }
   if (Status s = clear_run_outputs(out); !s) return s.error();
+  if (exporting) {
+    // The rest state (the copies made when the tissues were wrapped), saved as t = 0 below.
+    for (size_t i = 0; i < snaps.size(); ++i) frame_snaps[i] = snaps[i]->latest();
+    auto e = RunExporter::open(sim, options.exports, out, options.frame_options.resolution, frame_snaps);
+    if (!e) return Error{where + ": " + e.error().message};
+    exporter = std::move(*e);
+  }
 
   auto built = sim.open_loop(out / "run.csv");
   if (!built) return built.error();
   HapticLoop& loop = **built;
   loop_ptr = &loop;
+  if (exporter) {  // t = 0: the rest state, before the first tick (no tool pose yet)
+    std::vector<ExportToolSample> ts(sim.tools().size());
+    if (Status s = exporter->add(0.0, frame_snaps, ts); !s) export_error = s.error().message;
+  }
   const Device& dev = *sim.tools().front().device;
 
   // Ultrasound images: image k after us_target(k) ticks, from the newest tick's probe and needle
@@ -307,7 +386,7 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
     // beside a realtime haptic thread on a small machine they take its core and push the
     // period's p99 from 1.09 to 2.6 ms (docs/benchmarks/haptics.md). Frames drawn beside the loop
     // are rasterised on this thread alone, unless the user set LP_NUM_THREADS.
-    if (nframes > 0) ::setenv("LP_NUM_THREADS", "0", /*overwrite=*/0);
+    if (ncap > 0) ::setenv("LP_NUM_THREADS", "0", /*overwrite=*/0);
     if (Status s = loop.start(); !s) return s.error();
     bool requested = false, us_requested = false;
     std::vector<char> got(snaps.size(), 0);
@@ -331,7 +410,7 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
         us_requested = false;
         continue;
       }
-      if (next_frame < nframes && !requested && st.ticks + 3 >= frame_target(next_frame)) {
+      if (next_frame < ncap && !requested && st.ticks + 3 >= frame_target(next_frame)) {
         for (SnapshotTissue* t : snaps) t->request();
         std::fill(got.begin(), got.end(), 0);
         requested = true;
@@ -350,11 +429,11 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
           continue;
         }
       }
-      std::this_thread::sleep_for(std::chrono::milliseconds(next_frame < nframes || next_us < nus ? 1 : 50));
+      std::this_thread::sleep_for(std::chrono::milliseconds(next_frame < ncap || next_us < nus ? 1 : 50));
     }
     loop.wait();
     if (loop.stats().ticks == ticks) {  // an interrupted run has no images past its end
-      for (; next_frame < nframes; ++next_frame) take_frame(next_frame, true);
+      for (; next_frame < ncap; ++next_frame) take_frame(next_frame, true);
       for (; next_us < nus; ++next_us) take_ultrasound(next_us, true, true);
     }
     if (options.progress) options.progress(1.0);
@@ -370,9 +449,9 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
     const std::uint64_t chunk = std::max<std::uint64_t>(1, ticks / 100);
     for (std::uint64_t done = 0; done < ticks;) {
       std::uint64_t n = std::min(chunk, ticks - done);
-      if (next_frame < nframes) n = std::min(n, frame_target(next_frame) - done);
+      if (next_frame < ncap) n = std::min(n, frame_target(next_frame) - done);
       if (next_us < nus) n = std::min(n, us_target(next_us) - done);
-      const bool frame_now = next_frame < nframes && done + n == frame_target(next_frame);
+      const bool frame_now = next_frame < ncap && done + n == frame_target(next_frame);
       const bool us_now = vein_snap && next_us < nus && done + n == us_target(next_us);
       if (frame_now || us_now) {
         // The last tick before an image copies what the image needs (every tissue for a frame).
@@ -536,6 +615,21 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
     for (const RunFrame& f : summary.frames)
       j["outputs"]["frames"].push_back({{"file", f.file.filename().string()}, {"time_s", f.time}});
     if (!summary.frame_error.empty()) j["outputs"]["frame_error"] = summary.frame_error;
+  }
+  if (exporter) {
+    // The exports' collection files (run.pvd, run.glb), also for an interrupted run (up to its end).
+    if (export_error.empty())
+      if (Status s = exporter->finish(summary.export_files); !s) export_error = s.error().message;
+    for (const auto& [t, f] : exporter->saved()) summary.exports.push_back({t, f});
+    summary.export_error = export_error;
+    j["outputs"]["exports"] = nlohmann::json::array();
+    for (const RunFrame& f : summary.exports) {
+      std::error_code ec;
+      const fs::path rel = fs::relative(f.file, out, ec);
+      j["outputs"]["exports"].push_back({{"file", (ec ? f.file : rel).generic_string()}, {"time_s", f.time}});
+    }
+    j["outputs"]["export_files"] = summary.export_files.size();
+    if (!export_error.empty()) j["outputs"]["export_error"] = export_error;
   }
   summary.ultrasound = std::move(us_frames);
   summary.ultrasound_error = std::move(us_error);

@@ -1,6 +1,6 @@
 # test_simulation.py — palpate.Simulation from Python: state as read-only numpy views that follow
 # the steps and outlive the Python object, step_many equal to single steps, events and outcome,
-# the one write path (set_material), a mass-spring organ's state (copies) and its sag.
+# the one write path (set_material), a mass-spring organ's state (views of its positions and velocities) and its sag.
 import gc
 
 import numpy as np
@@ -148,17 +148,32 @@ def test_a_scene_from_dicts_runs_like_its_file():
     assert str(e.value).startswith(f"my.yaml:{line}:") and "elasticity" in str(e.value)
 
 
-def test_a_mass_spring_organ_sags_and_its_state_is_a_documented_copy(tmp_path):
+def test_a_mass_spring_organ_sags_and_its_state_is_a_view_that_sees_each_step(tmp_path):
     sim = palpate.Simulation(SCENES / "liver-springs.yaml", cache=tmp_path)
     liver = sim.tissue("liver")
-    assert liver.model == "mass_spring" and liver.layout == "copy"
+    assert liver.model == "mass_spring" and liver.layout == "aos"
     assert liver.x is None
     rest = liver.rest_positions
-    assert rest.shape == (181, 3) and rest.dtype == np.float32 and not rest.flags.writeable
+    assert rest.shape == (181, 3) and rest.dtype == np.float64 and not rest.flags.writeable
+    pos, vel = liver.positions, liver.velocities
+    for a in (pos, vel):  # views of SpringState::x and v: (n, 3) float64, read-only
+        assert a.shape == (181, 3) and a.dtype == np.float64 and not a.flags.writeable
+        assert a.flags.c_contiguous
+        with pytest.raises(ValueError):
+            a[0, 0] = 1.0
+    np.testing.assert_array_equal(pos, rest)  # at rest before the first tick
+    assert not vel.any()
     far = [-0.41, 8.0, 0.66]  # the sphere well above the organ: gravity alone
     for _ in range(10):
         sim.step(far)
+    # The same array objects, taken before the steps, show the state after them.
+    assert pos[:, 1].mean() < rest[:, 1].mean()  # sagged under gravity (y up)
+    assert vel[:, 1].mean() < 0  # still falling
     now = liver.positions
-    assert now.shape == (181, 3)
-    assert now[:, 1].mean() < rest[:, 1].mean()  # sagged under gravity (y up)
+    assert now.shape == (181, 3) and np.shares_memory(now, pos)
+    snap = liver.snapshot()["points"]  # the drawn copy (float32) agrees with the view
+    np.testing.assert_allclose(snap, pos, atol=1e-6)
     assert liver.figures()["kinetic_energy_J"] > 0
+    del sim
+    gc.collect()
+    assert np.isfinite(pos).all()  # the view keeps the simulation's memory alive

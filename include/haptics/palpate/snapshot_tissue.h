@@ -51,6 +51,7 @@ class SnapshotTissue final : public Tissue {
   void reset() noexcept override { inner_->reset(); }
   void set_layers_above(std::span<Tissue* const> above) override { inner_->set_layers_above(above); }
   const ChargedLayer* charged_layer() const noexcept override { return inner_->charged_layer(); }
+  const SpringBody* spring_body() const noexcept override { return inner_->spring_body(); }
   ContactComplianceSource* contact_compliance() noexcept override { return inner_->contact_compliance(); }
 
   // Render thread: ask for a fresh copy at the next step. Cheap; call every frame.

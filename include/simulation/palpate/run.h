@@ -49,6 +49,13 @@ struct RunOptions {
   int ultrasound = 0;
   // Ultrasound images at these times instead (s; as frame_times).
   std::vector<double> ultrasound_times;
+  // Exports (docs/export.md), written off the tick path as frames are (the same hand-over):
+  // "vtu": run.pvd and vtu/<part>_NNNN.vtu (binary appended, float64) for each tissue and the
+  // tools; "gltf": run.glb, the run as one animated glTF 2.0 scene. Saved at t = 0 (the rest
+  // state, before the first tick), then after the tick nearest every `export_every` s, and at the
+  // run's end. Into `out`; an unwritable folder is refused before the first tick.
+  std::vector<std::string> exports;
+  double export_every = 0.1;  // s, > 0
   // Every tick's kept series row in full precision (double): the needle's time, pose and force and
   // each extra tool's pose and force (HapticLoop::finish_recording lists them;
   // RunSummary::series_columns names them), streamed back from the recorder's file after the run,
@@ -91,6 +98,9 @@ struct RunSummary {
   std::string frame_error;                        // why frames are missing, if they are
   std::vector<RunFrame> ultrasound;               // ultrasound images written, if asked for
   std::string ultrasound_error;                   // why they are missing, if they are
+  std::vector<RunFrame> exports;                  // exported states (time; the .vtu of the first part, or run.glb)
+  std::vector<std::filesystem::path> export_files;  // every file the exports wrote (run.pvd, .vtu, run.glb)
+  std::string export_error;                       // why exports are missing or incomplete, if they are
   std::vector<LoopToolStats> tools;               // the extra tools (the probe): force, safety
   std::vector<LoopPhysicsStats> physics;          // tissues on their own thread: steps, step time, late
   std::vector<std::string> tissue_names;          // the tissues' names, in the loop's order

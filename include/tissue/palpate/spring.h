@@ -429,6 +429,13 @@ struct SpringTissueSetup {
 };
 Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index, const TissueServices& services);
 
+// A mass-spring tissue's model and live state, read-only (Tissue::spring_body()): positions and
+// velocities are (n x 3) row-major float64 (SpringState::x, v).
+struct SpringBody {
+  const SpringModel* model = nullptr;
+  const SpringState* state = nullptr;
+};
+
 // A scene tissue over a built model (tests, benchmarks, embedding programs): step(tool, dt) runs
 // dt / model.options.dt steps; it offers the loop its compliant contact patch
 // (ContactComplianceSource, palpate/haptics.h) when dt is one step.

@@ -18,6 +18,7 @@
 namespace palpate {
 
 struct ChargedLayer;  // palpate/charged.h
+struct SpringBody;    // palpate/spring.h
 
 // The tool as the tissues see it this tick. For a sphere probe `tip` is its centre; for a needle
 // it is the needle's tip and `axis` points from the handle to the tip.
@@ -48,6 +49,11 @@ struct TissueSnapshot {
   std::vector<int> rows_cols;             // {rows, cols} when points form a control grid, else {}
   std::vector<std::array<int, 3>> triangles;  // surface over the points, if any
   std::vector<std::array<int, 2>> links;      // neighbour links or springs
+  // Per point, where the model has them (exports: docs/export.md); empty otherwise.
+  std::vector<Vec3f> velocities;              // m/s (mass-spring)
+  std::vector<Vec3f> loads;                   // N, the external (contact, grasp) load on the point at
+                                              // the last step (mass-spring)
+  std::vector<std::uint8_t> punctured;        // 1 where the particle's charge is reversed (charged)
 };
 
 // A tissue model instance wired into a scene. `step` is the 1 kHz path: noexcept, no allocation,
@@ -80,6 +86,9 @@ class Tissue {
   virtual void set_layers_above(std::span<Tissue* const> above) { (void)above; }
   // This tissue as a charged-particle layer for that coupling, or null for other models.
   virtual const ChargedLayer* charged_layer() const noexcept { return nullptr; }
+  // This tissue as a mass-spring body (its model and live state, read-only), or null for other
+  // models: for readers outside the haptic path (exports, Python's views) while nothing steps it.
+  virtual const SpringBody* spring_body() const noexcept { return nullptr; }
   // This tissue's compliant contact patch for a multi-rate loop (palpate/haptics.h), or null.
   virtual ContactComplianceSource* contact_compliance() noexcept { return nullptr; }
 };

@@ -79,6 +79,10 @@ class ChargedTissue final : public Tissue {
         if (nb[static_cast<size_t>(k)] > static_cast<int>(i))
           snap.links.push_back({static_cast<int>(i), nb[static_cast<size_t>(k)]});
     }
+    snap.velocities.clear();  // a charged layer's particles carry no velocity
+    snap.loads.clear();
+    snap.punctured.resize(n);
+    for (size_t i = 0; i < n; ++i) snap.punctured[i] = state_.reversed(i) ? 1 : 0;
   }
 
   void reset() noexcept override { palpate::reset(model_, state_); }

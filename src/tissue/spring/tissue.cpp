@@ -32,7 +32,11 @@ const std::string kFigureNames[] = {"force_N",          "force_x_N",        "for
 class SpringTissue final : public Tissue, public ContactComplianceSource {
  public:
   SpringTissue(std::string name, int index, SpringModel model)
-      : name_(std::move(name)), index_(index), model_(std::move(model)), state_(make_state(model_)) {}
+      : name_(std::move(name)), index_(index), model_(std::move(model)), state_(make_state(model_)) {
+    body_ = {&model_, &state_};
+  }
+  SpringTissue(const SpringTissue&) = delete;
+  SpringTissue& operator=(const SpringTissue&) = delete;
 
   const std::string& name() const override { return name_; }
 
@@ -101,7 +105,18 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
     snap.rows_cols.clear();
     snap.triangles = model_.network.triangles;
     snap.links.assign(model_.network.springs.begin(), model_.network.springs.end());
+    // Velocities, and the contact's load on the vertices it holds (zero elsewhere).
+    snap.velocities.resize(static_cast<size_t>(n));
+    for (Eigen::Index i = 0; i < n; ++i) snap.velocities[static_cast<size_t>(i)] = state_.v.row(i).transpose().cast<float>();
+    snap.loads.assign(static_cast<size_t>(n), Vec3f::Zero());
+    for (int k = 0; k < state_.contact_vertex_count; ++k) {
+      const int v = state_.contact_vertex[static_cast<size_t>(k)];
+      if (v >= 0 && v < n) snap.loads[static_cast<size_t>(v)] += state_.contact_load[static_cast<size_t>(k)].cast<float>();
+    }
+    snap.punctured.clear();
   }
+
+  const SpringBody* spring_body() const noexcept override { return &body_; }
 
   void reset() noexcept override { palpate::reset(model_, state_); }
 
@@ -121,6 +136,7 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
   int index_;
   SpringModel model_;
   SpringState state_;
+  SpringBody body_;  // points at model_ and state_ (the tissue is never copied nor moved)
   bool failed_ = false;  // the last step() reset the state
   std::unique_ptr<SpringCompliance> compliance_;
   std::array<TissueEvent, 64> events_{};
