@@ -142,7 +142,7 @@ TEST(Export, ARealtimeRunExportsTheSameSeries) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(read_pvd(out / "run.pvd").size(), 20u);
   Ran check = palpate::test::shell_run("/usr/bin/python3 " + std::string(PALPATE_SOURCE_DIR) + "/tests/export/check_vtu.py " +
-                                       out.string() + " 5");
+                                       out.string() + " 5 --realtime");
   EXPECT_EQ(check.code, 0) << check.out;
   fs::remove_all(out);
 }

@@ -44,7 +44,7 @@ def run_rows(path):
     return header, data
 
 
-def check(out, states=None):
+def check(out, states=None, realtime=False):
     out = Path(out)
     errors = []
     sets = pvd_sets(out / "run.pvd")
@@ -114,13 +114,16 @@ def check(out, states=None):
             force = np.array([float(row[col[k]]) for k in ("force_x", "force_y", "force_z")])
             if np.abs(m.points[0] - tip).max() > 1e-9:
                 errors.append(f"{where}: the tool's tip at {m.points[0]}, run.csv has {tip}")
-            if np.abs(m.point_data["force"][0] - force).max() > 1e-6:
+            # A realtime run exports the tissues' force of that tick, before the safety filter; on a
+            # loaded machine (a sanitizer build) the watchdog zeroes late ticks and ramps back in,
+            # so the force sent (run.csv) differs there by design: the tip is still compared.
+            if not realtime and np.abs(m.point_data["force"][0] - force).max() > 1e-6:
                 errors.append(f"{where}: the tool's force {m.point_data['force'][0]}, run.csv has {force}")
     return errors
 
 
 if __name__ == "__main__":
-    errs = check(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else None)
+    errs = check(sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else None, "--realtime" in sys.argv[3:])
     for e in errs:
         print("check_vtu:", e)
     if not errs:
