@@ -293,6 +293,7 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
     if (ncap > 0) ::setenv("LP_NUM_THREADS", "0", /*overwrite=*/0);
     if (Status s = loop.start(); !s) return s.error();
     bool requested = false, us_requested = false;
+    double requested_at = 0;  // s, the last tick done when the frame's copies were requested
     std::vector<char> got(snaps.size(), 0);
     auto last_progress = std::chrono::steady_clock::now();
     for (LoopStats st = loop.stats(); st.running; st = loop.stats()) {
@@ -318,13 +319,21 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
         for (SnapshotTissue* t : snaps) t->request();
         std::fill(got.begin(), got.end(), 0);
         requested = true;
+        requested_at = double(st.ticks) * dt;
       }
       if (requested) {
+        // A copy answers the request only if it shows a tool read after it: one published
+        // earlier and not read yet (the first tick's, made for no request, then the request
+        // answered by the next tick) or one from a physics step that began before the request
+        // would show the frame seconds early. Such a copy is passed over and asked for again.
         bool all = true;
         for (size_t i = 0; i < snaps.size(); ++i) {
           bool fresh = false;
           if (!got[i]) snaps[i]->latest(&fresh);
-          got[i] = got[i] || fresh;
+          if (fresh && snaps[i]->current_stamp().time >= requested_at - 0.5 * dt)
+            got[i] = 1;
+          else if (fresh)
+            snaps[i]->request();
           all = all && got[i];
         }
         if (all) {

@@ -119,6 +119,36 @@ TEST(RunFrames, RealtimeFramesAreDrawnWhileTheLoopRuns) {
   EXPECT_EQ(rows, ticks + 1);
 }
 
+// The first tick publishes a copy that nobody asked for (the slots' first fill, for a viewer's
+// first frame); a frame asked for later must not take it, nor the one its request leaves behind
+// for the next frame: each realtime frame shows the tissue at its own time (a TSan run in CI drew
+// the last of three frames at the middle one's time).
+TEST(RunFrames, RealtimeFramesAtChosenTimesShowThoseTimes) {
+  PALPATE_NEEDS(OSMESA, "OSMesa");
+  palpate::SceneDef scene = probe_scene();
+  scene.duration = 1.2;
+  const fs::path out = fs::temp_directory_path() / "palpate_test_run_frames_rt_times";
+  fs::remove_all(out);
+  palpate::RunOptions opt;
+  opt.out = out;
+  opt.plots = false;
+  opt.realtime = true;
+  opt.realtime_priority = false;
+  opt.frame_times = {0.3, 0.6, 0.9};
+  auto r = palpate::run_scene(scene, opt);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->frame_error, "");
+  ASSERT_EQ(r->frames.size(), 3u);
+  // A frame is asked for 3 ticks before its time and shows the first step after the request; one
+  // that is late (the drawing of the one before took long) shows a later tick, never an earlier.
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_GE(r->frames[k].time, opt.frame_times[k] - 0.0035) << k;
+    if (k + 1 < 3) {
+      EXPECT_LT(r->frames[k].time, r->frames[k + 1].time) << k;
+    }
+  }
+}
+
 TEST(RunFrames, MoreFramesThanTicksIsAClearError) {
   palpate::SceneDef scene = probe_scene();
   scene.duration = 0.01;
