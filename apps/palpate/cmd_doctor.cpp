@@ -155,10 +155,17 @@ int doctor_command(const DoctorArgs& a) {
                                   st.position.x() * 1e3, st.position.y() * 1e3, st.position.z() * 1e3)
                     : "the default HD device opens but its servo loop gave no pose in 1 s",
                "check the device in the vendor's Touch Diagnostic and run doctor again");
+        const Calibration c = (*device)->calibration();
+        r.line(c == Calibration::unknown ? Verdict::warn : Verdict::ok, "  calibration",
+               c == Calibration::ok        ? "calibrated (hdCheckCalibration)"
+               : c == Calibration::updated ? "was out of date; updated by the HD library (hdUpdateCalibration)"
+                                           : "unknown: this HD library has no hdCheckCalibration",
+               "check it in the vendor's Touch Diagnostic before a session: a device out of calibration puts "
+               "the tool off where the hand is");
       } else {
         r.line(Verdict::fail, "  device", device.error().message,
-               "connect and power the device, check it in the vendor's Touch Setup and Touch Diagnostic "
-               "(calibrate there: palpate does not query the calibration yet), then run doctor again");
+               "connect and power the device, check it in the vendor's Touch Setup and Touch Diagnostic, "
+               "then run doctor again");
       }
     }
   }

@@ -45,6 +45,13 @@ constexpr HDenum HD_NOMINAL_MAX_FORCE = 0x2603;      // N
 constexpr HDenum HD_NOMINAL_MAX_DAMPING = 0x2609;    // N·s/mm
 constexpr HDenum HD_CURRENT_FORCE = 0x2700;          // N
 constexpr HDenum HD_FORCE_OUTPUT = 0x4000;
+constexpr HDenum HD_CALIBRATION_STYLE = 0x2650;      // the styles a device supports (bit mask)
+constexpr HDenum HD_CALIBRATION_OK = 0x5000;
+constexpr HDenum HD_CALIBRATION_NEEDS_UPDATE = 0x5001;
+constexpr HDenum HD_CALIBRATION_NEEDS_MANUAL_INPUT = 0x5002;
+constexpr HDint HD_CALIBRATION_ENCODER_RESET = 1 << 0;  // the arm held in its reset position
+constexpr HDint HD_CALIBRATION_AUTO = 1 << 1;           // by moving the arm about (Phantom Premium)
+constexpr HDint HD_CALIBRATION_INKWELL = 1 << 2;        // the stylus in its inkwell (Omni, Touch)
 
 struct HdApi {
   void* lib = nullptr;
@@ -62,6 +69,9 @@ struct HdApi {
   void (*hdGetIntegerv)(HDenum, HDint*) = nullptr;
   void (*hdSetDoublev)(HDenum, const HDdouble*) = nullptr;
   HDErrorInfo (*hdGetError)() = nullptr;
+  // Optional: a library without them gives Calibration::unknown.
+  HDenum (*hdCheckCalibration)() = nullptr;
+  void (*hdUpdateCalibration)(HDenum) = nullptr;
 };
 
 template <class F>
@@ -133,10 +143,33 @@ class OpenHapticsDevice final : public Device {
     // The device's own nominal limits, read once in the scheduler; the scene may only lower them.
     api_.hdScheduleSynchronous(&OpenHapticsDevice::query_limits, this, HD_DEFAULT_SCHEDULER_PRIORITY);
     publish_servo_limits();
+    // Its calibration, in the scheduler as the vendor's examples do: an update it can make alone
+    // (hdUpdateCalibration) is made; one that needs the user's hand stops the open, saying which.
+    if (api_.hdCheckCalibration) {
+      api_.hdScheduleSynchronous(&OpenHapticsDevice::check_calibration, this, HD_DEFAULT_SCHEDULER_PRIORITY);
+      if (calibration_status_ != HD_CALIBRATION_OK) {
+        const bool inkwell = (calibration_styles_ & HD_CALIBRATION_INKWELL) != 0;
+        const bool reset = (calibration_styles_ & HD_CALIBRATION_ENCODER_RESET) != 0;
+        const std::string how =
+            inkwell ? "put the stylus in its inkwell"
+            : reset ? "hold the arm in its reset position (see the device's manual)"
+                    : "calibrate it with the vendor's Touch Setup or Touch Diagnostic";
+        return Error{"openhaptics: the device is not calibrated (" +
+                     std::string(calibration_status_ == HD_CALIBRATION_NEEDS_MANUAL_INPUT
+                                     ? "it needs your hand"
+                                     : "HD status " + hex(calibration_status_)) +
+                     "): " + how + ", then start again; a device out of calibration puts the tool off "
+                     "where the hand is"};
+      }
+    }
     return {};
   }
 
   const DeviceLimits& limits() const override { return limits_; }
+  Calibration calibration() const noexcept override {
+    if (!api_.hdCheckCalibration) return Calibration::unknown;
+    return calibration_updated_ ? Calibration::updated : Calibration::ok;
+  }
 
   bool read(double t, DeviceState& out) noexcept override {
     pose_.update();
@@ -221,6 +254,31 @@ class OpenHapticsDevice final : public Device {
     return HD_CALLBACK_DONE;
   }
 
+  // In the scheduler, once (hdScheduleSynchronous: start() waits for it). An update the library can
+  // make alone is made with the style the device supports: automatic first (it needs no pose),
+  // then the inkwell (a Touch's stylus resting in it), then the encoder reset.
+  static HDCallbackCode check_calibration(void* self_ptr) {
+    auto& self = *static_cast<OpenHapticsDevice*>(self_ptr);
+    const HdApi& hd = self.api_;
+    HDint styles = 0;
+    hd.hdGetIntegerv(HD_CALIBRATION_STYLE, &styles);
+    (void)hd.hdGetError();  // a library that does not know the query: no styles
+    self.calibration_styles_ = styles;
+    HDenum status = hd.hdCheckCalibration();
+    if (status == HD_CALIBRATION_NEEDS_UPDATE && hd.hdUpdateCalibration) {
+      const HDint style = (styles & HD_CALIBRATION_AUTO)      ? HD_CALIBRATION_AUTO
+                          : (styles & HD_CALIBRATION_INKWELL) ? HD_CALIBRATION_INKWELL
+                                                              : HD_CALIBRATION_ENCODER_RESET;
+      hd.hdUpdateCalibration(static_cast<HDenum>(style));
+      const HDErrorInfo e = hd.hdGetError();
+      status = hd.hdCheckCalibration();
+      self.calibration_updated_ = e.errorCode == HD_SUCCESS && status == HD_CALIBRATION_OK;
+      if (e.errorCode != HD_SUCCESS) status = HD_CALIBRATION_NEEDS_UPDATE;
+    }
+    self.calibration_status_ = status;
+    return HD_CALLBACK_DONE;
+  }
+
   // The servo's copy of the limits (atomics: set before the scheduler starts and after the query).
   void publish_servo_limits() noexcept {
     const double mf = std::isfinite(limits_.max_force) ? std::max(0.0, limits_.max_force) : 0.0;
@@ -240,6 +298,10 @@ class OpenHapticsDevice final : public Device {
   TripleBuffer<TimedForce> force_;  // haptic thread → servo
   std::atomic<bool> failed_{false}, stopping_{false};
   std::atomic<std::int64_t> frame_ns_{0};  // monotonic ns of the servo's last frame
+  // Written by check_calibration in the scheduler before start() returns, read after.
+  HDenum calibration_status_ = HD_CALIBRATION_OK;
+  HDint calibration_styles_ = 0;
+  bool calibration_updated_ = false;
 };
 
 }  // namespace
@@ -272,6 +334,8 @@ Result<std::unique_ptr<Device>> open_openhaptics(const std::string& library, con
   PALPATE_BIND(hdSetDoublev);
   PALPATE_BIND(hdGetError);
 #undef PALPATE_BIND
+  bind(api.lib, api.hdCheckCalibration, "hdCheckCalibration");
+  bind(api.lib, api.hdUpdateCalibration, "hdUpdateCalibration");
   if (missing) {
     ::dlclose(api.lib);
     return Error{"openhaptics: '" + library + "' has no function " + missing +

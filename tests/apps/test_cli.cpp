@@ -266,6 +266,18 @@ TEST(Cli, DoctorChecksWhatALabNeedsAndSaysWhatToDo) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find(std::string("ok   openhaptics    found ") + PALPATE_FAKE_HD), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("the default HD device opens; stylus at"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("ok     calibration  calibrated (hdCheckCalibration)"), std::string::npos) << r.out;
+  // A device that needs calibrating by hand does not open: exit 1, the way to do it on the line.
+  r = palpate::test::shell_run("FAKE_HD_CALIBRATION=manual " + std::string(PALPATE_CLI) + " doctor --hd-library " +
+                               PALPATE_FAKE_HD + " 2>&1");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("the device is not calibrated (it needs your hand): put the stylus in its inkwell"),
+            std::string::npos) << r.out;
+  // One the library could update: updated, and said so.
+  r = palpate::test::shell_run("FAKE_HD_CALIBRATION=update " + std::string(PALPATE_CLI) + " doctor --hd-library " +
+                               PALPATE_FAKE_HD + " 2>&1");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("updated by the HD library (hdUpdateCalibration)"), std::string::npos) << r.out;
   // A predictor cache that cannot be written fails the check: exit 1, with the way out.
   r = palpate::test::shell_run("XDG_CACHE_HOME=/proc/palpate-no-such-dir " + std::string(PALPATE_CLI) +
                                " doctor --no-device-open 2>&1");

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -48,6 +49,18 @@ struct Fake {
   std::atomic<bool> stalled{false};  // the servo calls no callback (a library blocked inside a call)
   bool nan_position = false;          // HD_CURRENT_POSITION reads NaN
   std::vector<unsigned int> enabled;
+  // hdCheckCalibration's answer (HD_CALIBRATION_OK 0x5000, _NEEDS_UPDATE 0x5001, _NEEDS_MANUAL_INPUT
+  // 0x5002; a process that is not a test sets it with FAKE_HD_CALIBRATION=ok|update|manual) and
+  // the styles the device supports (HD_CALIBRATION_STYLE; a Touch's: the inkwell, 1 << 2).
+  unsigned int calibration = initial_calibration();
+  int calibration_styles = 1 << 2;
+  int update_style = -1;  // the style of the last hdUpdateCalibration, -1 = none
+  static unsigned int initial_calibration() {
+    const char* c = std::getenv("FAKE_HD_CALIBRATION");
+    if (c && std::strcmp(c, "update") == 0) return 0x5001;
+    if (c && std::strcmp(c, "manual") == 0) return 0x5002;
+    return 0x5000;
+  }
 };
 
 Fake& fake() {
@@ -184,7 +197,22 @@ void hdGetIntegerv(unsigned int what, int* out) {
   Fake& f = fake();
   std::lock_guard<std::mutex> lock(f.m);
   if (what == 0x2000) *out = int(f.frame % 2 == 0 ? 1 : 0);  // HD_CURRENT_BUTTONS: toggles
+  else if (what == 0x2650) *out = f.calibration_styles;       // HD_CALIBRATION_STYLE
   else f.error = 0x0100;
+}
+unsigned int hdCheckCalibration() {
+  count("hdCheckCalibration");
+  std::lock_guard<std::mutex> lock(fake().m);
+  return fake().calibration;
+}
+// An update is possible only when the check said so, and only in a style the device supports.
+void hdUpdateCalibration(unsigned int style) {
+  count("hdUpdateCalibration");
+  Fake& f = fake();
+  std::lock_guard<std::mutex> lock(f.m);
+  f.update_style = int(style);
+  if ((int(style) & f.calibration_styles) == 0) f.error = 0x0100;
+  else if (f.calibration == 0x5001) f.calibration = 0x5000;
 }
 void hdSetDoublev(unsigned int what, const double* v) {
   count("hdSetDoublev");
@@ -224,6 +252,20 @@ void fake_hd_reset(int device_present) {
   f.max_force = 3.3;
   f.stalled.store(false);
   f.nan_position = false;
+  f.calibration = 0x5000;
+  f.calibration_styles = 1 << 2;
+  f.update_style = -1;
+}
+// hdCheckCalibration's answer and the supported styles from now on.
+void fake_hd_set_calibration(unsigned int status, int styles) {
+  Fake& f = fake();
+  std::lock_guard<std::mutex> lock(f.m);
+  f.calibration = status;
+  f.calibration_styles = styles;
+}
+int fake_hd_update_style() {
+  std::lock_guard<std::mutex> lock(fake().m);
+  return fake().update_style;
 }
 // While `on`, the servo thread runs no callback: the library blocked inside a call, or a device
 // that stopped answering.

@@ -23,7 +23,11 @@ struct FakeHd {
   void (*set_max_force)(double) = nullptr;
   void (*stall)(int) = nullptr;
   void (*set_nan_position)(int) = nullptr;
+  void (*set_calibration)(unsigned, int) = nullptr;
+  int (*update_style)() = nullptr;
   FakeHd() {
+    set_calibration = reinterpret_cast<void (*)(unsigned, int)>(::dlsym(lib, "fake_hd_set_calibration"));
+    update_style = reinterpret_cast<int (*)()>(::dlsym(lib, "fake_hd_update_style"));
     stall = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_stall"));
     set_nan_position = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_set_nan_position"));
     set_max_force = reinterpret_cast<void (*)(double)>(::dlsym(lib, "fake_hd_set_max_force"));

@@ -191,6 +191,63 @@ TEST(HapticOpenHaptics, NoDeviceIsAClearError) {
   EXPECT_EQ(hd.calls("hdStartScheduler"), 0);
 }
 
+// The calibration is checked as the device opens (hdCheckCalibration, in the scheduler): a
+// calibrated device opens as it is; one whose library can update it alone is updated, in a style
+// it supports; one that needs the user's hand does not open, and the error says what to do.
+TEST(HapticOpenHaptics, CalibrationIsCheckedAndUpdatedOrRefusedWithWhatToDo) {
+  FakeHd hd;
+  ASSERT_NE(hd.lib, nullptr) << ::dlerror();
+  ASSERT_NE(hd.set_calibration, nullptr);
+  constexpr unsigned kOk = 0x5000, kNeedsUpdate = 0x5001, kNeedsHand = 0x5002;
+  constexpr int kReset = 1, kAuto = 2, kInkwell = 4;
+  hd.reset(1);
+  {
+    auto d = palpate::open_openhaptics(PALPATE_FAKE_HD, "", {});
+    ASSERT_TRUE(d.ok()) << d.error().message;
+    EXPECT_EQ((*d)->calibration(), palpate::Calibration::ok);
+  }
+  EXPECT_EQ(hd.calls("hdCheckCalibration"), 1);
+  EXPECT_EQ(hd.calls("hdUpdateCalibration"), 0);
+
+  // Needs an update, the device supports the inkwell and the automatic style: the automatic one.
+  hd.reset(1);
+  hd.set_calibration(kNeedsUpdate, kInkwell | kAuto);
+  {
+    auto d = palpate::open_openhaptics(PALPATE_FAKE_HD, "", {});
+    ASSERT_TRUE(d.ok()) << d.error().message;
+    EXPECT_EQ((*d)->calibration(), palpate::Calibration::updated);
+  }
+  EXPECT_EQ(hd.calls("hdUpdateCalibration"), 1);
+  EXPECT_EQ(hd.update_style(), kAuto);
+  // A Touch (the inkwell only): updated in that style.
+  hd.reset(1);
+  hd.set_calibration(kNeedsUpdate, kInkwell);
+  {
+    auto d = palpate::open_openhaptics(PALPATE_FAKE_HD, "", {});
+    ASSERT_TRUE(d.ok()) << d.error().message;
+    EXPECT_EQ((*d)->calibration(), palpate::Calibration::updated);
+  }
+  EXPECT_EQ(hd.update_style(), kInkwell);
+
+  // Needs the hand: no device, the way to calibrate it named by the style it supports; the
+  // scheduler stopped and the device let go as for any failed open.
+  for (const auto& [styles, how] : {std::pair<int, const char*>{kInkwell, "put the stylus in its inkwell"},
+                                    std::pair<int, const char*>{kReset, "hold the arm in its reset position"},
+                                    std::pair<int, const char*>{0, "Touch Setup"}}) {
+    hd.reset(1);
+    hd.set_calibration(kNeedsHand, styles);
+    auto d = palpate::open_openhaptics(PALPATE_FAKE_HD, "", {});
+    ASSERT_FALSE(d.ok()) << styles;
+    const std::string& m = d.error().message;
+    EXPECT_NE(m.find("openhaptics: the device is not calibrated (it needs your hand): "), std::string::npos) << m;
+    EXPECT_NE(m.find(how), std::string::npos) << m;
+    EXPECT_EQ(hd.calls("hdUpdateCalibration"), 0) << styles;
+    EXPECT_GE(hd.calls("hdStopScheduler"), 1) << styles;
+    EXPECT_EQ(hd.calls("hdDisableDevice"), 1) << styles;
+  }
+  (void)kOk;
+}
+
 TEST(HapticOpenHaptics, ServoLoopExchangesPoseAndForceInSI) {
   FakeHd hd;
   ASSERT_NE(hd.lib, nullptr) << ::dlerror();

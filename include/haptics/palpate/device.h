@@ -37,6 +37,12 @@ struct DeviceState {
 // normalised. An orientation without rotation gives `tool_axis` itself, bit for bit.
 Vec3 needle_axis(const Vec3& tool_axis, const Quat& orientation) noexcept;
 
+// A device's calibration, as its vendor's library reports it when the device opens (openhaptics:
+// hdCheckCalibration). `updated`: it needed an update the library could make by itself
+// (hdUpdateCalibration), and made it. A device that needs the user's hand (the stylus into its
+// inkwell, the arm into its reset position) does not open: its error says what to do.
+enum class Calibration { unknown, ok, updated };
+
 // A haptic device backend. read/write are called from the haptic thread: noexcept, no allocation.
 class Device {
  public:
@@ -46,6 +52,9 @@ class Device {
   virtual bool read(double t, DeviceState& out) noexcept = 0;
   // Send force (N) and torque (N·m). Callers pass only values that went through safety.
   virtual void write(const Vec3& force, const Vec3& torque) noexcept = 0;
+  // Its calibration when it opened; `unknown` for a device without one (scripted, replay, virtual)
+  // or a vendor library that cannot tell.
+  virtual Calibration calibration() const noexcept { return Calibration::unknown; }
 };
 
 // Timed waypoints, linearly interpolated, held at the ends; velocity is the segment's slope.
@@ -137,7 +146,9 @@ class VirtualDevice final : public Device {
 // exchanges pose and force with this object through lock-free triple buffers; read/write never
 // block. HD works in millimetres: positions and velocities are converted to metres here.
 // `library`: file name or path of libHD.so; `config`: HD device configuration name, "" = default.
-// Errors say what is missing and how to run with the scripted device instead.
+// Errors say what is missing and how to run with the scripted device instead. The calibration is
+// checked as the device opens: an update the library can make alone is made; one that needs the
+// user's hand is an error saying which (stylus into the inkwell, arm to its reset position).
 Result<std::unique_ptr<Device>> open_openhaptics(const std::string& library, const std::string& config,
                                                  const DeviceLimits& limits);
 
