@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <cstdio>
@@ -294,6 +295,52 @@ TEST(CvcScenes, AtAPhysicsRateTheFlashbackFollowsThePunctureThatCausesIt) {
   // Every event within the run, in the order logged.
   for (size_t k = 1; k < r->events.size(); ++k) EXPECT_LE(r->events[k - 1].time, r->events[k].time) << k;
   EXPECT_LE(r->events.back().time, double(r->ticks) * r->dt + 1e-9);
+}
+
+// Issue 35, item 3: a 25° approach aimed at the vein under the probe goes into the neck at
+// z = −38 mm, beyond the 60 mm the neck's layers were generated over: it met no skin and no fat,
+// and was scored `vein` with no skin puncture. Over a neck 60 mm long it is outside_model now, with
+// its event where it went in; over the default neck (90 mm since, which covers approaches down to
+// 22°) the same path punctures the skin and scores vein.
+TEST(CvcScenes, ANeedleThatGoesInBeyondTheModelledNeckIsNotScored) {
+  auto run_25 = [](double length, const std::string& name) {
+    auto scene = load_scene(std::string(PALPATE_SOURCE_DIR) + "/data/scenes/cvc.yaml");
+    EXPECT_TRUE(scene.ok()) << scene.error().message;
+    constexpr double kDeg = 3.14159265358979323846 / 180;
+    const Vec3 axis(0, -std::sin(25 * kDeg), std::cos(25 * kDeg));
+    const Vec3 target(0, -0.0179, 0);                                  // the vein's axis (cvc.yaml)
+    const Vec3 start = target - (0.0229 / std::sin(25 * kDeg)) * axis;  // 5 mm above the skin
+    scene->tool.axis = axis;
+    scene->device.waypoints = {{0.0, start}, {0.3, start}, {5.3, target}};
+    scene->duration = 5.5;
+    if (length > 0) scene->anatomy->length = length;
+    RunOptions o;
+    o.out = std::filesystem::temp_directory_path() / ("palpate_cvc_25deg_" + name);
+    o.plots = false;
+    auto r = run_scene(*scene, o);
+    EXPECT_TRUE(r.ok()) << r.error().message;
+    std::filesystem::remove_all(o.out);
+    return *r;
+  };
+  const RunSummary outside = run_25(0.06, "60mm");
+  EXPECT_EQ(outside.metrics.outcome, Outcome::outside_model);
+  EXPECT_EQ(outside.metrics.skin_punctures, 0);
+  const auto ev = std::find_if(outside.events.begin(), outside.events.end(),
+                               [](const RunEvent& e) { return e.kind == "outside_model"; });
+  ASSERT_NE(ev, outside.events.end());
+  EXPECT_EQ(ev->tissue, "skin");
+  // Where it went in: the tip crosses the skin's rest surface (y = 0) at z = −0.0179/tan 25° =
+  // −38.4 mm, 0.2 s of travel after 0.3 s (the tip's depth then is under one tick's advance).
+  EXPECT_GT(ev->depth, 0.0);
+  EXPECT_LT(ev->depth, 0.0001);
+  EXPECT_EQ(std::count_if(outside.events.begin(), outside.events.end(),
+                          [](const RunEvent& e) { return e.kind == "outside_model"; }),
+            1);
+  const RunSummary inside = run_25(0.0, "default");
+  EXPECT_EQ(inside.metrics.outcome, Outcome::vein);
+  EXPECT_EQ(inside.metrics.skin_punctures, 1);
+  EXPECT_TRUE(std::none_of(inside.events.begin(), inside.events.end(),
+                           [](const RunEvent& e) { return e.kind == "outside_model"; }));
 }
 
 // Issue 35: docs/cvc.md's table of the probe's script disagreed with cvc.yaml. Its times are the

@@ -7,7 +7,8 @@ The trainer's table: data/scenes/cvc.yaml (a median adult neck, the ultrasound p
 scripted), the needle driven from Python through the skin at x = 0 toward the internal jugular
 vein at `angle` degrees to the skin, advanced at 10 mm/s to `depth` mm along the needle from the
 skin, held, and scored: none (short of the vein), vein (flashback: success), posterior_wall
-(through the back wall) or artery. Each cell is one palpate.Simulation stepped with step_many.
+(through the back wall), artery, or outside_model (the needle went in beyond the modelled neck).
+Each cell is one palpate.Simulation stepped with step_many.
 Prints the table and writes it as CSV (--csv).
 """
 import argparse

@@ -49,6 +49,7 @@ Vec3 outward(const OutcomeTissue& t, const Vec3& p) noexcept {
 }
 
 Outcome classify(const OutcomeState& s) noexcept {
+  if (s.outside) return Outcome::outside_model;
   if (s.artery) return Outcome::artery;
   if (s.posterior) return Outcome::posterior_wall;
   if (s.metrics.flashback) return Outcome::vein;
@@ -62,6 +63,7 @@ const char* outcome_name(Outcome outcome) noexcept {
     case Outcome::vein: return "vein";
     case Outcome::posterior_wall: return "posterior_wall";
     case Outcome::artery: return "artery";
+    case Outcome::outside_model: return "outside_model";
     case Outcome::none: break;
   }
   return "none";
@@ -88,6 +90,25 @@ double depth_below(const OutcomeTissue& t, const Vec3& p) noexcept {
   return 0;
 }
 
+bool within_edges(const OutcomeTissue& t, const Vec3& p) noexcept {
+  if (!(t.half_width > 0) || !(t.half_height > 0)) return true;
+  switch (t.shape) {
+    case Shape::flat: {
+      const Vec3 d = p - t.center;
+      return std::abs(d.dot(t.across)) <= t.half_width && std::abs(d.dot(t.along)) <= t.half_height;
+    }
+    case Shape::cylinder: {
+      // The arc from the patch's middle (along `normal`) to p's direction about the axis.
+      const Vec3 d = p - t.center;
+      const double arc = t.radius * std::atan2(d.dot(t.across), d.dot(t.normal));
+      return std::abs(arc) <= t.half_width && std::abs(d.dot(t.axis)) <= t.half_height;
+    }
+    case Shape::sphere:
+    case Shape::none: break;
+  }
+  return true;
+}
+
 OutcomeModel build_outcome_model(const SceneDef& scene) {
   OutcomeModel m;
   m.tissues.resize(scene.tissues.size());
@@ -101,6 +122,16 @@ OutcomeModel build_outcome_model(const SceneDef& scene) {
     if (!def.patch || !def.patch->normal.allFinite() || !(def.patch->normal.norm() > 0)) continue;
     const PatchDef& p = *def.patch;
     const Vec3 n = p.normal.normalized();
+    Vec3 u, v;
+    patch_frame(n, u, v);
+    t.across = u;
+    t.along = v;
+    // The outermost particles lie half the width (a quarter spacing more on alternate rows) and
+    // half the height from the middle: the edges where modelled skin ends.
+    if (p.shape == "flat" || p.shape == "cylinder") {
+      t.half_width = 0.5 * p.width + 0.25 * p.spacing;
+      t.half_height = 0.5 * p.height;
+    }
     if (p.shape == "flat") {
       t.shape = Shape::flat;
       t.center = p.center;
@@ -111,8 +142,6 @@ OutcomeModel build_outcome_model(const SceneDef& scene) {
       t.center = p.center - p.radius * n;
       t.radius = p.radius;
       t.normal = n;
-      Vec3 u, v;
-      patch_frame(n, u, v);
       t.axis = v;
       t.half_length = 0.5 * p.height;
     }
@@ -168,12 +197,21 @@ bool outcome_tick(const OutcomeModel& model, OutcomeState& s, double time, const
   s.last_tip = tip;
   if (force > m.peak_force) m.peak_force = force;
 
+  s.left_model = false;
   if (model.skin >= 0 && size_t(model.skin) < model.tissues.size()) {
     const OutcomeTissue& skin = model.tissues[size_t(model.skin)];
     if (skin.shape != Shape::none) {
       const double depth = depth_below(skin, tip);
       if (depth > m.deepest_depth) m.deepest_depth = depth;
       if (s.under_skin && depth <= 0) s.under_skin = false;  // back out above the skin
+      // Under the skin's rest surface with no skin puncture, beyond the patch's edges: the needle
+      // went into the body where no skin (nor anything under it) is modelled. Whatever it meets
+      // afterwards is not the trainee's doing: the run is outside_model from here on.
+      if (!s.outside && !s.under_skin && depth > 0 && !within_edges(skin, tip)) {
+        s.outside = true;
+        s.left_model = true;
+        s.outside_depth = depth;
+      }
     }
   }
 

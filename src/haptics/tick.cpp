@@ -207,6 +207,8 @@ void HapticLoop::Impl::record(TickState& ts) noexcept {
   const bool flashback = outcome_tick(s.outcome, outcome, ts.t, tool.tip, tool.axis, ts.force_norm);
   if (recorder && outcome.redirected)  // a new pass under the skin (docs/cvc.md, "Outcome and metrics")
     (void)recorder->push_event({ts.t, "redirect", s.outcome.skin, 0.0, ts.force_norm});
+  if (recorder && outcome.left_model)  // into the body beyond the skin's edges: not scored
+    (void)recorder->push_event({ts.t, "outside_model", s.outcome.skin, outcome.outside_depth, ts.force_norm});
   if (flashback && recorder)
     (void)recorder->push_event({ts.t, "flashback", outcome.flashback_tissue, outcome.flashback_depth,
                                 outcome.flashback_force});

@@ -86,6 +86,93 @@ TEST(OutcomeModel, PatchFrameIsTheChargedModelsFrame) {
   }
 }
 
+// The skin's edges as the outcome sees them hold every particle of the charged model's patch, and
+// nothing half a spacing beyond its outermost row and column (flat and the neck's cylinder).
+TEST(OutcomeModel, TheSkinsEdgesAreThePatchsOutermostParticles) {
+  for (const char* shape : {"flat", "cylinder"}) {
+    palpate::PatchDef p;
+    p.shape = shape, p.radius = 0.06, p.width = 0.06, p.height = 0.05, p.spacing = 0.001;
+    p.normal = Vec3(0, 1, 0), p.center = Vec3(0.001, 0, -0.002);
+    auto built = palpate::build_charged_patch(p, palpate::ChargedMaterialDef{});
+    ASSERT_TRUE(built.ok()) << built.error().message;
+    palpate::SceneDef scene;
+    palpate::TissueDef t;
+    t.name = "skin", t.role = "skin", t.patch = p;
+    scene.tissues.push_back(t);
+    const OutcomeModel m = palpate::build_outcome_model(scene);
+    const OutcomeTissue& o = m.tissues[0];
+    double far_u = 0, far_v = 0;
+    for (size_t i = 0; i < built->size(); ++i) {
+      const Vec3 x = built->origin(i);
+      ASSERT_TRUE(palpate::within_edges(o, x)) << shape << " particle " << i;
+      // The same point 2 mm deep along the surface's normal there (the edges hold at any depth).
+      Vec3 outward = p.normal;
+      if (std::string(shape) == "cylinder") {
+        const Vec3 r = x - (p.center - p.radius * p.normal);
+        outward = (r - r.dot(built->tangent_v) * built->tangent_v).normalized();
+      }
+      ASSERT_TRUE(palpate::within_edges(o, x - 0.002 * outward)) << shape << " " << i;
+      const Vec3 d = x - p.center;
+      far_u = std::max(far_u, std::abs(d.dot(built->tangent_u)));
+      far_v = std::max(far_v, std::abs(d.dot(built->tangent_v)));
+    }
+    // Half a spacing past the last column (across) and the last row (along): outside.
+    const double across = std::string(shape) == "flat" ? far_u + 0.0005 : 0.0;
+    if (across > 0) {
+      EXPECT_FALSE(palpate::within_edges(o, p.center + across * built->tangent_u)) << shape;
+      EXPECT_FALSE(palpate::within_edges(o, p.center - across * built->tangent_u)) << shape;
+    } else {
+      // Cylinder: the arc past the outermost column, on the tube's surface.
+      const double phi = (0.5 * p.width + 0.25 * p.spacing + 0.0005) / p.radius;
+      const Vec3 axis_point = p.center - p.radius * p.normal;
+      for (double sgn : {-1.0, 1.0})
+        EXPECT_FALSE(palpate::within_edges(
+            o, axis_point + p.radius * (std::sin(sgn * phi) * built->tangent_u + std::cos(sgn * phi) * p.normal)))
+            << shape;
+    }
+    EXPECT_FALSE(palpate::within_edges(o, p.center + (far_v + 0.0005) * built->tangent_v)) << shape;
+    EXPECT_FALSE(palpate::within_edges(o, p.center - (far_v + 0.0005) * built->tangent_v)) << shape;
+  }
+}
+
+// Issue 35, item 3: a needle that goes into the body beyond the skin's edges (no skin puncture)
+// meets nothing the trainee aimed through: it is outside_model, once, whatever it meets after —
+// never scored vein. Inside the edges, and under a punctured skin beyond them, it is scored.
+TEST(OutcomeState, EnteringBeyondTheSkinsEdgesIsOutsideTheModelNeverScored) {
+  OutcomeModel m = skin_and_vein();
+  m.tissues[0].half_width = 0.02, m.tissues[0].half_height = 0.03;  // x ±20 mm, z ±30 mm
+  const Vec3 down(0, -1, 0);
+  OutcomeState s;
+  palpate::outcome_tick(m, s, 0.001, Vec3(0, 0.002, -0.035), down, 0.0);
+  EXPECT_FALSE(s.outside);
+  EXPECT_FALSE(palpate::outcome_tick(m, s, 0.002, Vec3(0, -0.001, -0.035), down, 0.0));
+  EXPECT_TRUE(s.outside);
+  EXPECT_TRUE(s.left_model) << "the tick it happened, for the event";
+  EXPECT_NEAR(s.outside_depth, 0.001, 1e-12);
+  EXPECT_EQ(s.metrics.outcome, Outcome::outside_model);
+  palpate::outcome_tick(m, s, 0.003, Vec3(0, -0.002, -0.035), down, 0.0);
+  EXPECT_FALSE(s.left_model) << "once";
+  // Then into the vein through a punctured wall: still outside_model, though the flashback counts.
+  palpate::outcome_event(m, s, "puncture", 1, 0.004, Vec3(0, -0.008, 0), down);
+  EXPECT_TRUE(palpate::outcome_tick(m, s, 0.004, Vec3(0, -0.008, 0), down, 0.5));
+  EXPECT_EQ(s.metrics.outcome, Outcome::outside_model);
+  EXPECT_STREQ(palpate::outcome_name(s.metrics.outcome), "outside_model");
+
+  // Inside the edges: the skin punctured, then under it past the edge and into the vein: vein.
+  OutcomeState q;
+  double t = move(m, q, 0.001, 0.005, -0.003);
+  palpate::outcome_event(m, q, "puncture", 0, t, Vec3(0, -0.003, 0), down);
+  palpate::outcome_tick(m, q, t + 0.001, Vec3(0.025, -0.004, 0), Vec3(1, 0, 0), 0.5);  // beyond x = 20 mm
+  EXPECT_FALSE(q.outside) << "under a punctured skin the needle may go past its edges";
+  palpate::outcome_event(m, q, "puncture", 1, t + 0.002, Vec3(0, -0.008, 0), down);
+  palpate::outcome_tick(m, q, t + 0.002, Vec3(0, -0.008, 0), down, 0.5);
+  EXPECT_EQ(q.metrics.outcome, Outcome::vein);
+  // Above the skin beyond its edges: nothing.
+  OutcomeState a;
+  palpate::outcome_tick(m, a, 0.001, Vec3(0.05, 0.001, 0.05), down, 0.0);
+  EXPECT_FALSE(a.outside);
+}
+
 TEST(OutcomeState, PassesNeedAWithdrawalAndAReadvanceOfMoreThan2mmUnderTheSkin) {
   const OutcomeModel m = skin_and_vein();
   OutcomeState s;

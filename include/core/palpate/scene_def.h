@@ -105,7 +105,7 @@ struct NeckDef {
   std::string kind = "neck";
   double neck_radius = 0.06;      // m, curvature of the skin across the neck (axis along z)
   double width = 0.06;            // m, extent across the neck (x)
-  double length = 0.06;           // m, extent along the neck (z)
+  double length = 0.09;           // m, extent along the neck (z)
   double skin_thickness = 0.0015; // m, epidermis + dermis, anterior neck (Lee & Hwang 2002)
   double ijv_depth = 0.0114;      // m, skin to the IJV's anterior wall (Wenzel et al. 2022, median)
   double ijv_diameter = 0.013;    // m (Thai CT 2013: right 14.9 ± 4.0 mm; Lee & Lee 2004: 14.2 mm)

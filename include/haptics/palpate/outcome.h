@@ -1,4 +1,4 @@
-// palpate/outcome.h — what a CVC run's needle did (vein | posterior_wall | artery | none), the
+// palpate/outcome.h — what a CVC run's needle did (vein | posterior_wall | artery | none | outside_model), the
 // flashback, and the trainee's metrics (docs/cvc.md, "Outcome and metrics"): a small per-tick state
 // machine over the needle's tip and the tissues' puncture events; constant model, stepped state.
 #pragma once
@@ -11,14 +11,16 @@
 
 namespace palpate {
 
-// Outcome priority: artery > posterior_wall > vein > none.
+// Outcome priority: outside_model > artery > posterior_wall > vein > none.
 enum class Outcome : std::uint8_t {
   none,            // no vessel reached
   vein,            // the tip entered the internal jugular vein's lumen (flashback): success
   posterior_wall,  // through the vein's back wall
   artery,          // the carotid's wall punctured (the tip in its lumen)
+  outside_model,   // the needle entered the body where no skin is modelled (beyond the skin
+                   //   patch's edge): nothing it met after can be scored
 };
-// "none", "vein", "posterior_wall", "artery": the names summary.json uses.
+// "none", "vein", "posterior_wall", "artery", "outside_model": the names summary.json uses.
 const char* outcome_name(Outcome outcome) noexcept;
 
 // What simulator studies score trainees by (docs/cvc.md gives the definitions and sources).
@@ -51,6 +53,13 @@ struct OutcomeTissue {
   Vec3 axis = Vec3::UnitZ();   // unit, cylinder: the tube's axis
   double radius = 0;           // m, cylinder and sphere
   double half_length = 0;      // m, cylinder: half the patch's extent along the axis
+  // The patch's edges, for the skin (where the body may be entered): half its width across
+  // (flat: along `across`; cylinder: the arc from `normal` about the axis) and half its height
+  // (flat: along `along`; cylinder: half_length). 0 = unbounded (a mesh, a sphere).
+  double half_width = 0;       // m
+  double half_height = 0;      // m
+  Vec3 across = Vec3::UnitX(); // unit, the patch's u (patch_frame)
+  Vec3 along = Vec3::UnitZ();  // unit, the patch's v
 };
 
 // The constant part: built once from the scene.
@@ -72,6 +81,10 @@ void patch_frame(const Vec3& normal, Vec3& u, Vec3& v) noexcept;
 // 0 for shape none.
 double depth_below(const OutcomeTissue& t, const Vec3& p) noexcept;
 
+// Whether `p` lies within tissue t's patch edges (across and along its rest surface, at any depth);
+// true for a tissue whose edges are not known (half_width or half_height 0).
+bool within_edges(const OutcomeTissue& t, const Vec3& p) noexcept;
+
 // Everything that changes; plain data, copied freely. Tissues past the 64th are not tracked.
 struct OutcomeState {
   TrainingMetrics metrics;
@@ -85,6 +98,10 @@ struct OutcomeState {
   Vec3 last_tip = Vec3::Zero();
   bool started = false;
   bool redirected = false;        // this tick began a new pass (a redirection): for the caller's event
+  bool outside = false;           // the tip went under the skin's rest surface beyond its edges
+                                  //   without a skin puncture: the outcome is outside_model
+  bool left_model = false;        // this tick it did so (first time): for the caller's event
+  double outside_depth = 0;       // m, then: the tip's depth below the skin's rest surface
   // The flashback, once (for the caller's event).
   int flashback_tissue = -1;
   double flashback_depth = 0;     // m, below the vein wall's rest surface
