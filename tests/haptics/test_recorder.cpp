@@ -168,7 +168,8 @@ TEST(Recorder, KeptColumnsAreStreamedThroughAFileNotHeldInMemory) {
   o.capacity_rows = 8192;
   for (size_t c = 0; c < 12; ++c) o.keep_columns.push_back(c + 1);
   std::vector<std::string> names = {"tick"};
-  for (int c = 0; c < 12; ++c) names.push_back("c" + std::to_string(c));
+  // (std::string("c") +: GCC 12 warns falsely, -Wrestrict, on "c" + std::string&&)
+  for (int c = 0; c < 12; ++c) names.push_back(std::string("c") + std::to_string(c));
   const size_t heap0 = ::mallinfo2().uordblks;
   auto r = palpate::Recorder::open(csv, names, {palpate::ColumnFormat::integer}, o);
   ASSERT_TRUE(r.ok()) << r.error().message;
