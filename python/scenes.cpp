@@ -32,6 +32,9 @@ void bind_scenes(py::module_& m) {
       .def_property_readonly("tool_kind", [](const PyScene& s) { return s.def.tool.kind; })
       .def_property_readonly("has_probe", [](const PyScene& s) { return s.def.probe.has_value(); })
       .def_property_readonly("has_anatomy", [](const PyScene& s) { return s.def.anatomy.has_value(); })
+      .def_property_readonly("warnings", [](const PyScene& s) { return s.def.warnings; },
+                             "What loads but looks wrong (a scripted needle moved sideways to its shaft): "
+                             "each names the file, line and key and what to do.")
       .def_property_readonly("tissues", [](const PyScene& s) { return tissue_names(s.def); },
                              "Tissue names in scene order (the anatomy's layers are added when it is built).")
       .def("__repr__", [](const PyScene& s) { return "<palpate.Scene '" + s.def.name + "' from '" + s.def.file.string() + "'>"; });

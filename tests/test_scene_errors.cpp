@@ -555,3 +555,63 @@ TEST(SceneLoad, SpringMaterialRulesAcrossKeysAreCheckedAtLoad) {
   EXPECT_EQ(error_of("      youngs_modulus: 5000\n      poisson_ratio: 0.45\n      topology: tet_edges\n"), "accepted");
   EXPECT_EQ(error_of("      youngs_modulus: 5000\n      poisson_ratio: 0\n"), "accepted");
 }
+
+// Issue 35, item 2: a scripted needle moved sideways to its own shaft drags the tissues it is in
+// off its track (a 70° path with tool.axis left at 45°). It loads and runs as written, with a
+// warning naming the file, line and waypoint, the angle, and what to do; a path along the shaft,
+// or with waypoint directions along it, or a tool that is not a needle, has none.
+TEST(SceneWarnings, AScriptedNeedleMovedSidewaysToItsShaftIsWarnedAbout) {
+  const std::string head = "tool: {kind: needle, axis: [0, -0.70711, 0.70711]}\n"
+                           "tissues:\n  - name: a\n    patch: {spacing: 0.002}\n";
+  // 70° to the skin (y = 0 plane): 25° off the 45° shaft; 13.8 mm in along it.
+  const std::string steep = head + "device:\n  waypoints:\n"
+                                   "    - {t: 0, position: [0, 0.005, -0.00182]}\n"
+                                   "    - {t: 2, position: [0, -0.013, 0.00473]}\n";
+  auto r = parse_scene(steep, "steep.yaml");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->warnings.size(), 1u);
+  const std::string& w = r->warnings[0];
+  EXPECT_NE(w.find("steep.yaml:8: device.waypoints[1]: the needle moves 19.2 mm at 25° to its own shaft between "
+                   "t = 0 s and 2 s"),
+            std::string::npos)
+      << w;
+  EXPECT_NE(w.find("aim the path along tool.axis"), std::string::npos) << w;
+  // Along the shaft: none. A direction on the waypoints that follows the path: none.
+  auto along = parse_scene(head + "device:\n  waypoints:\n    - {t: 0, position: [0, 0.005, -0.005]}\n"
+                                  "    - {t: 2, position: [0, -0.013, 0.013]}\n",
+                           "along.yaml");
+  ASSERT_TRUE(along.ok()) << along.error().message;
+  EXPECT_TRUE(along->warnings.empty()) << along->warnings[0];
+  auto turned = parse_scene(head + "device:\n  waypoints:\n"
+                                   "    - {t: 0, position: [0, 0.005, -0.00182], direction: [0, -0.9397, 0.342]}\n"
+                                   "    - {t: 2, position: [0, -0.013, 0.00473]}\n",
+                            "turned.yaml");
+  ASSERT_TRUE(turned.ok()) << turned.error().message;
+  EXPECT_TRUE(turned->warnings.empty()) << turned->warnings[0];
+  // Across the shaft (75° or more: a move to the next site above the skin), under 1 mm, or a
+  // sphere: none.
+  auto across = parse_scene(head + "device:\n  waypoints:\n    - {t: 0, position: [0, 0.01, 0]}\n"
+                                   "    - {t: 1, position: [0.01, 0.01, 0]}\n",
+                            "across.yaml");
+  ASSERT_TRUE(across.ok());
+  EXPECT_TRUE(across->warnings.empty()) << across->warnings[0];
+  auto small = parse_scene(head + "device:\n  waypoints:\n    - {t: 0, position: [0, 0, 0]}\n"
+                                  "    - {t: 1, position: [0.0009, 0, 0]}\n",
+                           "small.yaml");
+  ASSERT_TRUE(small.ok());
+  EXPECT_TRUE(small->warnings.empty());
+  auto sphere = parse_scene("tool: {kind: sphere, radius: 0.003}\n"
+                            "tissues:\n  - name: a\n    patch: {spacing: 0.002}\n"
+                            "device:\n  waypoints:\n    - {t: 0, position: [0, 0, 0]}\n"
+                            "    - {t: 1, position: [0.01, 0, 0]}\n",
+                            "sphere.yaml");
+  ASSERT_TRUE(sphere.ok());
+  EXPECT_TRUE(sphere->warnings.empty());
+  // No shipped scene is warned about.
+  for (const auto& entry : std::filesystem::directory_iterator(PALPATE_SOURCE_DIR "/data/scenes")) {
+    if (entry.path().extension() != ".yaml") continue;
+    auto scene = load_scene(entry.path());
+    ASSERT_TRUE(scene.ok()) << scene.error().message;
+    EXPECT_TRUE(scene->warnings.empty()) << entry.path() << ": " << scene->warnings[0];
+  }
+}

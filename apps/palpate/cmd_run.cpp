@@ -78,6 +78,8 @@ int run_command(const RunArgs& a) {
     fmt::print(stderr, "palpate run: {}\n", scene.error().message);
     return kExitFailed;
   }
+  if (!a.quiet)
+    for (const std::string& w : scene->warnings) fmt::print(stderr, "palpate run: warning: {}\n", w);
   if (!a.device.empty()) scene->device.kind = a.device;
   if (!a.recording.empty()) {
     scene->device.recording = a.recording;

@@ -40,6 +40,8 @@ int view_command(ViewArgs& args) {
     fmt::print(stderr, "palpate view: {}\n", scene.error().message);
     return kExitFailed;
   }
+  if (!args.options.quiet)
+    for (const std::string& w : scene->warnings) fmt::print(stderr, "palpate view: warning: {}\n", w);
   if (args.verbose) print_scene_inputs(*scene, args.options.cache);
   if (!args.probe.empty()) {
     auto p = parse_probe(args.probe);

@@ -286,6 +286,24 @@ TEST(Cli, DoctorChecksWhatALabNeedsAndSaysWhatToDo) {
   EXPECT_NE(r.out.find("-> make it writable, or pass --cache DIR"), std::string::npos) << r.out;
 }
 
+// A scene's warnings on standard error before the run, which runs as written; none with --quiet.
+TEST(Cli, RunPrintsTheScenesWarningsUnlessQuiet) {
+  const auto p = std::filesystem::temp_directory_path() / "palpate_cli_warned.yaml";
+  std::ofstream(p) << "name: warned\nduration: 0.05\ndt: 0.001\noutput: "
+                   << (std::filesystem::temp_directory_path() / "palpate_cli_warned").string()
+                   << "\ntool: {kind: needle, axis: [0, -1, 0]}\ndevice:\n  waypoints:\n"
+                      "    - {t: 0, position: [0, 0.01, 0]}\n    - {t: 0.05, position: [0.01, 0.004226, 0]}\n"
+                      "tissues:\n  - name: a\n    patch: {spacing: 0.002}\n";
+  Ran r = palpate::test::shell_run(std::string(PALPATE_CLI) + " run " + p.string() + " 2>&1");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("palpate run: warning: " + p.string() + ":9: device.waypoints[1]: the needle moves 11.5 mm at 60°"),
+            std::string::npos)
+      << r.out;
+  r = palpate::test::shell_run(std::string(PALPATE_CLI) + " run -q " + p.string() + " 2>&1");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out, "");
+}
+
 TEST(Cli, InfoJsonGivesTheSameFiguresAsText) {
   const std::string mesh = std::string(PALPATE_DATA_DIR) + "/meshes/liver.msh";
   const Ran text = run("info " + mesh);

@@ -51,3 +51,15 @@ def test_a_missing_file_and_a_missing_mesh(tmp_path, cli):
 
 def test_palpate_error_is_a_runtime_error():
     assert issubclass(palpate.Error, RuntimeError)
+
+
+def test_a_scenes_warnings_are_a_list_of_texts():
+    # A scripted needle moved sideways to its shaft (docs/scene-format.md, "Warnings").
+    scene = palpate.parse_scene(
+        "tool: {kind: needle, axis: [0, -1, 0]}\n"
+        "device:\n  waypoints:\n    - {t: 0, position: [0, 0.01, 0]}\n    - {t: 1, position: [0.01, 0.004226, 0]}\n"
+        "tissues:\n  - name: a\n    patch: {spacing: 0.002}\n",
+        name="sideways.yaml")
+    assert len(scene.warnings) == 1
+    assert scene.warnings[0].startswith("sideways.yaml:5: device.waypoints[1]: the needle moves 11.5 mm at 60°")
+    assert palpate.load_scene(SCENES / "cvc.yaml").warnings == []

@@ -29,6 +29,7 @@ struct Waypoint {
   // Unit direction the needle points at time t (scene frame); zero = not given: the previous
   // waypoint's direction holds (the scene's tool.axis, i.e. the device at identity, for the first).
   Vec3 direction = Vec3::Zero();
+  int line = 0;                     // where it was read (messages); 0 = not from a file
 };
 
 struct DeviceDef {
@@ -168,6 +169,10 @@ struct SceneDef {
   bool anatomy_expanded = false;           // whether `tissues` already begins with them
   std::optional<ProbeDef> probe;           // the ultrasound probe (needs `anatomy`)
   std::vector<TissueDef> tissues;
+  // What loads but looks wrong, each naming the file, line and key and what to do (a scripted
+  // needle moved sideways to its own shaft): printed by `palpate run` and `view`, scene.warnings
+  // in Python. Never an error: the scene runs as written.
+  std::vector<std::string> warnings;
 };
 
 
