@@ -34,13 +34,13 @@ enum class Verdict { ok, warn, fail };
 struct Report {
   bool quiet = false;  // only what failed or warns
   int failures = 0, warnings = 0;
-  void line(Verdict v, const std::string& what, const std::string& detail, const std::string& todo = {}) {
+  void line(Verdict v, const std::string& what, const std::string& detail, const std::string& what_to_do = {}) {
     failures += v == Verdict::fail;
     warnings += v == Verdict::warn;
     if (quiet && v == Verdict::ok) return;
     const char* tag = v == Verdict::ok ? "ok  " : v == Verdict::warn ? "warn" : "FAIL";
     fmt::print("{} {:<14} {}\n", tag, what, detail);
-    if (v != Verdict::ok && !todo.empty()) fmt::print("     {:<14} -> {}\n", "", todo);
+    if (v != Verdict::ok && !what_to_do.empty()) fmt::print("     {:<14} -> {}\n", "", what_to_do);
   }
 };
 

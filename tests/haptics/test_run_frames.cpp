@@ -34,6 +34,18 @@ palpate::SceneDef probe_scene() {
   return *scene;
 }
 
+// A realtime run into `out` (emptied first), without plots or the realtime priority a test
+// cannot count on.
+palpate::RunOptions realtime_run_options(const fs::path& out) {
+  fs::remove_all(out);
+  palpate::RunOptions opt;
+  opt.out = out;
+  opt.plots = false;
+  opt.realtime = true;
+  opt.realtime_priority = false;
+  return opt;
+}
+
 }  // namespace
 
 TEST(RunFrames, HeadlessFramesAreEvenlySpacedAndShowThePressAndTheReturn) {
@@ -94,12 +106,7 @@ TEST(RunFrames, RealtimeFramesAreDrawnWhileTheLoopRuns) {
   }
   scene.duration = std::max(0.6, std::ceil(80 * frame_s) / 10);
   const auto ticks = static_cast<std::uint64_t>(std::llround(scene.duration * 1000));
-  fs::remove_all(out);
-  palpate::RunOptions opt;
-  opt.out = out;
-  opt.plots = false;
-  opt.realtime = true;
-  opt.realtime_priority = false;
+  palpate::RunOptions opt = realtime_run_options(out);
   opt.frames = 3;
   auto r = palpate::run_scene(scene, opt);
   ASSERT_TRUE(r.ok()) << r.error().message;
@@ -127,13 +134,7 @@ TEST(RunFrames, RealtimeFramesAtChosenTimesShowThoseTimes) {
   PALPATE_NEEDS(OSMESA, "OSMesa");
   palpate::SceneDef scene = probe_scene();
   scene.duration = 1.2;
-  const fs::path out = fs::temp_directory_path() / "palpate_test_run_frames_rt_times";
-  fs::remove_all(out);
-  palpate::RunOptions opt;
-  opt.out = out;
-  opt.plots = false;
-  opt.realtime = true;
-  opt.realtime_priority = false;
+  palpate::RunOptions opt = realtime_run_options(fs::temp_directory_path() / "palpate_test_run_frames_rt_times");
   opt.frame_times = {0.3, 0.6, 0.9};
   auto r = palpate::run_scene(scene, opt);
   ASSERT_TRUE(r.ok()) << r.error().message;
