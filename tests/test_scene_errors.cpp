@@ -13,7 +13,8 @@ TEST(SceneErrors, UnknownKeySuggestsTheClosestAndListsValidKeys) {
             "s.yaml:5: tissues[0].material.max_displacment: unknown key (did you mean 'max_displacement'?); "
             "valid charged_particles material keys: max_displacement, elasticity, particle_radius, "
             "max_strain, max_separation, puncture_force, linear_share, snap_share, puncture_time, hole_closes, "
-            "two_sided, thickness, friction_per_length, friction_presliding, mesh_spacing");
+            "two_sided, thickness, friction_per_length, friction_presliding, mesh_spacing, force_model, "
+            "particle_charge, hip_charge");
   // A key of the model before its force became a law of the indentation says what replaced it.
   const std::string old = error_of("tissues:\n  - name: a\n    patch: {}\n    material:\n      sphere_of_influence: 0.002\n");
   EXPECT_EQ(old.substr(0, old.find("; valid")),

@@ -35,6 +35,13 @@ std::span<const Param<ChargedMaterialDef>> param_table(const ChargedMaterialDef*
        "shaft travel over which friction builds to its kinetic value after a reversal (Dahl model)"},
       {"mesh_spacing", &D::mesh_spacing, 1e-6, 1.0, "m",
        "target particle spacing when the patch is laid on a mesh (isotropic remeshing)"},
+      {"force_model", &D::force_model, 0, 0, "",
+       "the contact force: a law of the indentation, or the seed paper's Coulomb sum over the particles "
+       "(grows as 1/spacing^2, stiffness depends on the tick)",
+       "indentation|coulomb"},
+      {"particle_charge", &D::particle_charge, 1e-15, 1.0, "C", "each particle's charge (force_model: coulomb)"},
+      {"hip_charge", &D::hip_charge, 1e-15, 1.0, "C",
+       "the haptic interaction point's charge, like-signed: it repels the particles (force_model: coulomb)"},
   };
   return table;
 }

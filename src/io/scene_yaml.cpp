@@ -230,9 +230,6 @@ TissueDef parse_tissue(const Ctx& c, const YAML::Node& node, size_t index, int l
                         if (key == "track_friction")
                           return std::string("'track_friction' (N) is now 'friction_per_length' (N/m) over the "
                                              "shaft inside 'thickness'");
-                        if (key == "particle_charge" || key == "hip_charge")
-                          return "'" + key + "' is gone: the contact force is set by 'puncture_force', "
-                                 "'max_displacement' and 'linear_share'";
                         return has_key<SpringMaterialDef>(key) ? "'" + key + "' is a mass_spring key" : std::string();
                       });
     } else {

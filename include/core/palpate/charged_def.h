@@ -3,6 +3,8 @@
 
 #include <palpate/params.h>
 
+#include <string>
+
 namespace palpate {
 
 // Material of one charged-particle patch (DESIGN.md §1, docs/models/charged-particles.md). SI units.
@@ -25,6 +27,13 @@ struct ChargedMaterialDef {
   double friction_per_length = 100.0;  // N/m, kinetic friction per metre of shaft inside the layer
   double friction_presliding = 0.0003; // m, shaft travel over which friction builds (Dahl model)
   double mesh_spacing = 0.001;         // m, particle spacing when the patch is laid on a mesh
+  // The contact force: "indentation" (the law Φ(δ) of how far the sphere of influence reaches past
+  // the rest surface: the same at any spacing and tick) or "coulomb" (the seed's own sum of the
+  // HIP's Coulomb repulsion from the particles in its sphere of influence, for reproducing and
+  // comparing the paper: ∝ 1/spacing², its stiffness depends on the tick; the charges below set it).
+  std::string force_model = "indentation";
+  double particle_charge = 1.0e-8;     // C, each particle's charge (force_model coulomb)
+  double hip_charge = 1.0e-8;          // C, the HIP's, like-signed: they repel (force_model coulomb)
 };
 
 std::span<const Param<ChargedMaterialDef>> param_table(const ChargedMaterialDef*);

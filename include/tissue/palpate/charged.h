@@ -29,6 +29,8 @@ struct ChargedModel {
   ChargedMaterialDef material;
   ChargedLayout layout = ChargedLayout::flat;
   double max_separation = 0;  // m, S: the separation rule's limit (material's, or from max_strain)
+  bool coulomb = false;       // material.force_model is "coulomb": the seed's contact force
+  double coulomb_kqq = 0;     // N·m², k_e·hip_charge·particle_charge (coulomb)
 
   // Generated lattices (layout != mesh): particle index = r * cols + c, rows along v, columns
   // along u; odd rows are shifted by spacing/2 along u (hexagonal tessellation).
@@ -73,6 +75,7 @@ struct ChargedHole {
   Vec3 surface = Vec3::Zero();  // m, the rest surface's point under the HIP at the puncture
   Vec3 normal = Vec3::Zero();   // unit, the rest surface's outward normal there
   double bristle = 0;           // m, Dahl friction state in [−z0, z0] (z0 = friction_presliding)
+  std::int8_t side = 1;         // +1: punctured from the outer side; −1: from inside (a vessel's lumen)
   bool in_track = false;        // the tool passes through the hole now
   bool open = false;            // slot in use
 };
@@ -182,5 +185,9 @@ double charged_snap_force(const ChargedMaterialDef& mat, double age) noexcept;
 // The track's centring force magnitude (N) for a shaft `offset` (m) off the track's line:
 // F_p·tanh(offset/R) — stiffness F_p/R at the line, saturating at the puncture force. C¹, odd.
 double charged_track_force(const ChargedMaterialDef& mat, double offset, double sphere_of_influence) noexcept;
+// The seed's Coulomb repulsion (N, ≥ 0) of one particle at distance r (m) from the HIP, force_model
+// coulomb: kqq·(1/r_c² − 1/R²) inside the sphere of influence R (0 at its edge, so a particle
+// entering it adds no step), r_c = max(r, R/10) (bounded at the centre); 0 for r ≥ R.
+double charged_coulomb_force(double kqq, double r, double sphere_of_influence) noexcept;
 
 }  // namespace palpate

@@ -46,6 +46,11 @@ Result<double> check_material(const ChargedMaterialDef& m, double spacing, const
   for (auto [v, key] : {std::pair{m.linear_share, "linear_share"}, std::pair{m.snap_share, "snap_share"}})
     if (!(std::isfinite(v) && v >= 0 && v <= 1))
       return Error{where + ": material '" + key + "' is " + num(v) + "; expected a value in [0, 1]"};
+  if (m.force_model != "indentation" && m.force_model != "coulomb")
+    return Error{where + ": material 'force_model' is '" + m.force_model + "'; expected indentation or coulomb"};
+  for (auto [v, key] : {std::pair{m.particle_charge, "particle_charge"}, std::pair{m.hip_charge, "hip_charge"}})
+    if (!(std::isfinite(v) && v > 0))
+      return Error{where + ": material '" + key + "' is " + num(v) + " C; expected a finite value > 0"};
   if (m.max_separation > 0) {
     if (!(m.max_separation > spacing))
       return Error{where + ": material 'max_separation' (" + num(m.max_separation) +
@@ -54,6 +59,13 @@ Result<double> check_material(const ChargedMaterialDef& m, double spacing, const
     return m.max_separation;
   }
   return (1 + m.max_strain) * spacing;
+}
+
+constexpr double kCoulomb = 8.9875517923e9;  // N·m²/C², k_e = 1/(4π ε0)
+
+void set_force_model(ChargedModel& m) {
+  m.coulomb = m.material.force_model == "coulomb";
+  m.coulomb_kqq = kCoulomb * m.material.hip_charge * m.material.particle_charge;
 }
 
 // Unit tangents completing `n` to a right-handed frame (u, v, n): u ⟂ n, v = n × u.
@@ -102,6 +114,7 @@ Result<ChargedModel> build_charged_patch(const PatchDef& p, const ChargedMateria
                                          const std::string& where) {
   ChargedModel m;
   m.material = material;
+  set_force_model(m);
   if (p.shape == "flat") m.layout = ChargedLayout::flat;
   else if (p.shape == "cylinder") m.layout = ChargedLayout::cylinder;
   else if (p.shape == "sphere") m.layout = ChargedLayout::sphere;
@@ -288,6 +301,7 @@ Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface, const Cha
 
   ChargedModel m;
   m.material = material;
+  set_force_model(m);
   m.layout = ChargedLayout::mesh;
   m.spacing = s;
   m.max_separation = *separation;

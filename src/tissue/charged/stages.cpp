@@ -15,15 +15,6 @@ void push_event(ChargedState& s, const TissueEvent& e) noexcept {
   ++s.event_count;
 }
 
-// Distance from point c to the segment [a, b], and the segment's point nearest to c.
-double segment_distance(const Vec3& a, const Vec3& b, const Vec3& c, Vec3& nearest) noexcept {
-  const Vec3 ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0 ? std::clamp((c - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  nearest = a + t * ab;
-  return (c - nearest).norm();
-}
-
 void set_position(ChargedState& s, int i, const Vec3& p) noexcept {
   const auto k = static_cast<size_t>(i);
   s.x[k] = static_cast<float>(p.x()), s.y[k] = static_cast<float>(p.y()), s.z[k] = static_cast<float>(p.z());
@@ -111,17 +102,31 @@ double lattice_height(const ChargedModel& m, const Vec3& p) noexcept {
   return std::sqrt(x * x + z * z) - m.radius;
 }
 
-// Stage 1 — HIP update: which holes the tool passes through now; exits, and holes that close.
-// A tool enters a hole's track when its tip is within R of the track's line and no farther than
-// R above the rest surface there (where contact would begin: re-entering an open hole along its
-// track meets no resistance), and stays in it while its tip is within R + D of the line or its
-// shaft passes within R + D of the hole's centre, and the tip is less than R above the surface
-// (leaving sideways tears out; leaving outward is clear of any contact, so the force resumes from
-// zero). Every way in is also a way to stay: a tool never flickers in and out of a track.
-// Returns whether the tool is in any track; `near`: whether its tip is by a hole it is in (there the
-// patch neither pushes nor is pushed: the tool passes through).
-bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, const Vec3& tail, double R,
-                   int tissue, bool& near) noexcept {
+bool entry_point(const ChargedModel& m, const Vec3& h, const Vec3& axis, double side, double step_length,
+                 Vec3& point, Vec3& normal) noexcept {
+  if (m.layout == ChargedLayout::mesh || !(step_length > 0)) return false;
+  auto g = [&](double t) { return side * lattice_height(m, h - t * axis); };
+  if (!(g(0) < 0)) return false;
+  double lo = 0, hi = step_length;
+  int steps = 0;
+  while (g(hi) < 0) {
+    if (++steps == 8) return false;  // the shaft runs along the surface: no crossing near
+    lo = hi, hi += step_length;
+  }
+  for (int k = 0; k < 48 && hi - lo > 1e-12; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (g(mid) < 0 ? lo : hi) = mid;
+  }
+  point = h - hi * axis;
+  double d = 0;
+  if (!rest_surface(m, point, step_length, d, normal)) return false;
+  normal *= side;
+  return true;
+}
+
+// Stage 1 — HIP update (stages.h).
+bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, const Vec3& axis, bool over,
+                   double rest_height, double R, int tissue, bool& near) noexcept {
   const double D = m.material.max_displacement;
   bool any = false;
   near = false;
@@ -131,13 +136,12 @@ bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, cons
     Vec3 e = tip - hole.center;
     e -= e.dot(hole.axis) * hole.axis;  // the tip's offset from the track's line
     const double offset = e.norm();
-    bool now = false;
-    if (height < R) {
-      // Stays while the tip is near the line or the shaft still passes the hole (a tilt about it).
-      Vec3 q;
-      now = hole.in_track ? offset < R + D || segment_distance(tail, tip, hole.center, q) < R + D
-                          : offset < R;
-    }
+    // Out: R above the hole's tangent plane, or withdrawn behind the hole along the shaft and R
+    // clear of the layer's rest surface on the side the tool came from (where the plane misleads:
+    // a vessel punctured on its flank, where the plane's normal points sideways).
+    const bool behind = (tip - hole.surface).dot(axis) < 0;
+    const bool clear = !over || rest_height * hole.side >= R;
+    const bool now = height < R && !(behind && clear) && (hole.in_track || offset < R);
     if (hole.in_track && !now) {
       push_event(s, TissueEvent{s.time, "exit", tissue, 0.0, 0.0});
       if (m.material.hole_closes) {  // the particles' charges return to normal: the hole heals
@@ -152,9 +156,10 @@ bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, cons
     hole.in_track = now && hole.open;
     any = any || hole.in_track;
     // Near: the tip is in the band where this hole's surface would be met (from D + 2R under it to
-    // R over it) and by the hole (sideways within R + D): there the patch must not be met anew.
-    // A tip on the track far beyond the band (across a vessel's lumen) meets the layer again.
-    near = near || (hole.in_track && height > -(D + 2 * R) && offset < R + D);
+    // R over it) while the shaft is in the hole: there the patch must not be met anew (a tip drifted
+    // sideways just under the skin is in the skin, not pressing it from below). A tip on the track
+    // far beyond the band (across a vessel's lumen) meets the layer again.
+    near = near || (hole.in_track && height > -(D + 2 * R));
   }
   return any;
 }

@@ -119,9 +119,6 @@ void for_each_candidate(const ChargedModel& m, const Vec3& h, double rho, F&& f,
 
 void push_event(ChargedState& s, const TissueEvent& e) noexcept;
 
-// Distance from point c to the segment [a, b], and the segment's point nearest to c.
-double segment_distance(const Vec3& a, const Vec3& b, const Vec3& c, Vec3& nearest) noexcept;
-
 void set_position(ChargedState& s, int i, const Vec3& p) noexcept;
 
 // A particle left its origin (or moved again): remember it in the active set and queue it for
@@ -138,17 +135,28 @@ bool rest_surface(const ChargedModel& m, const Vec3& h, double rho, double& dist
 // the patch's bounds: rest_surface's distance, at a few flops.
 double lattice_height(const ChargedModel& m, const Vec3& p) noexcept;
 
+// Where the shaft's line through the tip `h` (pointing along unit `axis`) last crossed a generated
+// patch's rest surface coming in from `side` (+1 outer, −1 inner): `point` on the surface and the
+// surface's `normal` there toward that side. Searched back along the line in steps of
+// `step_length` (at most 8) and bisected. False for a mesh patch, a tip not under the surface, or a
+// line that does not come out within 8 steps (then the nearest surface point serves).
+bool entry_point(const ChargedModel& m, const Vec3& h, const Vec3& axis, double side, double step_length,
+                 Vec3& point, Vec3& normal) noexcept;
+
 // Stage 1 — HIP update: which holes the tool passes through now; exits, and holes that close.
 // A tool enters a hole's track when its tip is within R of the track's line and no farther than
 // R above the rest surface there (where contact would begin: re-entering an open hole along its
-// track meets no resistance), and stays in it while its tip is within R + D of the line or its
-// shaft passes within R + D of the hole's centre, and the tip is less than R above the surface
-// (leaving sideways tears out; leaving outward is clear of any contact, so the force resumes from
-// zero). Every way in is also a way to stay: a tool never flickers in and out of a track.
+// track meets no resistance), and stays in it until its tip is out — R above the surface (the
+// hole's tangent plane; or, withdrawn behind the hole along the shaft `axis`, R clear of the rest
+// surface: `over` and `rest_height` are rest_surface's for the tip, unsided): a layer lets
+// go of the shaft only when the shaft is out of it, however far a hand drifts it sideways or
+// redirects it (the track's centring force pushes back: step.cpp). Leaving outward is clear of
+// any contact, so the force resumes from zero. Every way in is also a way to stay: a tool never
+// flickers in and out of a track.
 // Returns whether the tool is in any track; `near`: whether its tip is by a hole it is in (there the
 // patch neither pushes nor is pushed: the tool passes through).
-bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, const Vec3& tail, double R,
-                   int tissue, bool& near) noexcept;
+bool update_tracks(const ChargedModel& m, ChargedState& s, const Vec3& tip, const Vec3& axis, bool over,
+                   double rest_height, double R, int tissue, bool& near) noexcept;
 
 // Stage 3 — repulsion: a particle inside the HIP's sphere of influence is pushed inward along its
 // own surface normal out to the sphere's surface (where the repulsion vanishes), but never beyond

@@ -34,6 +34,12 @@ double charged_track_force(const ChargedMaterialDef& mat, double offset, double 
   return mat.puncture_force * std::tanh(offset / R);
 }
 
+double charged_coulomb_force(double kqq, double r, double R) noexcept {
+  if (!(r < R) || !(R > 0)) return 0.0;
+  const double rc = std::max(r, 0.1 * R);
+  return kqq * (1 / (rc * rc) - 1 / (R * R));
+}
+
 Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double dt, int tissue,
           std::span<const ChargedLayer> above) noexcept {
   s.stats.contacts = s.stats.pinned = 0;
@@ -54,21 +60,35 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
   const Vec3 axis = hip.axis.norm() > 1e-12 ? Vec3(hip.axis.normalized()) : Vec3(0, -1, 0);
   const Vec3 tail = h - axis * std::max(0.0, hip.shaft_length);
 
-  // 1. HIP update.
-  bool near_hole = false;
-  const bool in_track = update_tracks(m, s, h, tail, R, tissue, near_hole);
-  // 2. Relaxation: first, so that what pushes this tick (the tool, the layers above) has the last
-  // word — contact particles end the tick on the tool's sphere, pressed ones under the layer above.
-  relaxation(m, s, dt);
-  // Where the tool is against the rest surface, and from which side: a two-sided layer (a vessel
-  // wall) is met from inside too, its side fixed while the contact lasts.
+  // Where the tool is against the rest surface (the tracks' exits need it too).
   const double reach = R + D + 3 * m.spacing;
   double dist = 0;
   Vec3 normal = Vec3::Zero();
   const bool over = rest_surface(m, h, reach, dist, normal);
+  // 1. HIP update.
+  bool near_hole = false;
+  const bool in_track = update_tracks(m, s, h, axis, over, dist, R, tissue, near_hole);
+  // 2. Relaxation: first, so that what pushes this tick (the tool, the layers above) has the last
+  // word — contact particles end the tick on the tool's sphere, pressed ones under the layer above.
+  relaxation(m, s, dt);
+  // From which side the tool meets the surface: a two-sided layer (a vessel wall) is met from
+  // inside too, its side fixed while the contact lasts.
   if (over && mat.two_sided && !s.engaged) s.side = dist >= 0 ? 1 : -1;
   if (!mat.two_sided) s.side = 1;
   dist *= s.side, normal *= s.side;
+  // force_model coulomb: the seed's force, from the particles where the tool finds them this tick
+  // — relaxed, not yet repelled (so it is stiffer the longer the tick, and grows with the
+  // particles' density: docs/models/charged-particles.md).
+  const double pinned_at = kPinnedFraction * D;
+  Vec3 coulomb_force = Vec3::Zero();
+  if (m.coulomb && !near_hole)
+    for_each_candidate(m, h, R + D, [&](int i) {
+      const auto k = static_cast<size_t>(i);
+      if (s.flags[k] & kReversed) return;
+      const Vec3 d = s.position(k) - h;
+      const double r = d.norm();
+      if (r > 0 && r < R) coulomb_force -= charged_coulomb_force(m.coulomb_kqq, r, R) * (d / r);
+    });
   // 3. Repulsion (a tool inside a hole's track passes through: the patch does not push it).
   size_t q_tail = 0;
   if (!near_hole) repulsion(m, s, h, R, s.side, q_tail);
@@ -98,9 +118,56 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
   // 5. Force on the HIP.
   Vec3 force = Vec3::Zero();
   bool contact = false;
-  double contact_force = 0;  // N, |the contact law's force| this tick (the track's forces apart)
+  double contact_force = 0;  // N, |the contact force| this tick (the track's forces apart)
+  // A layer under one the tool is still pressing (not through) is pressed by that layer, not cut by
+  // the needle: it cannot be punctured before the layer above it is.
+  bool covered = false;
+  for (const ChargedLayer& layer : above) covered = covered || (layer.state && layer.state->engaged);
+  // A puncture: the particles in the sphere of influence reverse their charge and a hole opens
+  // where the shaft came through the rest surface (on a vessel tented deep before it gave, the
+  // nearest surface point may be on its flank instead). The give below carries this tick's force
+  // from here on — only if the hand already felt the contact on the last tick: a tool that jumped
+  // into the layer gets no pop.
+  // Figures: particles in the sphere of influence, and those held at maximum displacement.
+  auto count_contacts = [&] {
+    for_each_candidate(m, h, R + D, [&](int i) {
+      const auto k = static_cast<size_t>(i);
+      if (s.flags[k] & kReversed) return;
+      if (!((s.position(k) - h).squaredNorm() < R * R)) return;
+      ++s.stats.contacts;
+      if ((s.position(k) - m.origin(k)).norm() >= pinned_at) ++s.stats.pinned;
+    });
+  };
+  auto open_hole = [&] {
+    ChargedHole& hole = s.holes[static_cast<size_t>(s.next_hole)];
+    s.next_hole = (s.next_hole + 1) % kChargedMaxHoles;
+    hole.center = h, hole.axis = axis, hole.in_track = true, hole.open = true;
+    hole.surface = h - dist * normal, hole.normal = over ? normal : Vec3(-axis), hole.side = s.side, hole.bristle = 0;
+    entry_point(m, h, axis, s.side, std::max(D, R), hole.surface, hole.normal);
+    s.give = s.contact_peak > 0 ? force : Vec3::Zero();
+    s.give_age = 0;
+    s.engaged = false;
+    force.setZero();
+    for_each_candidate(m, h, R + D, [&](int i) {
+      if ((s.position(static_cast<size_t>(i)) - h).norm() < R) s.flags[static_cast<size_t>(i)] |= kReversed;
+    });
+    s.contact_peak = std::max(s.contact_peak, s.give.norm());
+    push_event(s, TissueEvent{s.time, "puncture", tissue, -dist, s.contact_peak});
+  };
   if (near_hole) {
     s.engaged = false;
+  } else if (m.coulomb) {
+    // The seed's contact force (force_model coulomb): the Coulomb sum over the particles in the
+    // sphere of influence where this tick found them (before the repulsion moved them), and the
+    // seed's puncture: a needle with a particle held at max_displacement and the sum past the
+    // puncture force.
+    count_contacts();
+    force = coulomb_force;
+    contact_force = force.norm();
+    contact = contact_force > 0;
+    s.engaged = contact;
+    if (over) s.stats.indentation = std::max(0.0, R - dist);
+    if (hip.sharp && contact && s.stats.pinned > 0 && contact_force >= mat.puncture_force && !covered) open_hole();
   } else {
     // Contact: the law Φ of the indentation δ = R − (height of h above the rest surface), along
     // the surface's normal on the tool's side. δ measures the tool against the surface the
@@ -119,44 +186,16 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
         s.stats.indentation = delta;
         // Puncture: a needle whose indentation reaches max_displacement (Φ(D) = puncture_force);
         // the force of this tick is the law's value there, not past it (a tool that jumped deep).
-        // A layer under one the tool is still pressing (not through) is pressed by that layer, not
-        // cut by the needle: it cannot be punctured before the layer above it is.
-        bool covered = false;
-        for (const ChargedLayer& layer : above) covered = covered || (layer.state && layer.state->engaged);
         const bool puncture = hip.sharp && delta >= D && !covered;
         // A covered layer at max_displacement under a needle carries its puncture force, no more:
         // it tears as soon as the layer above lets the needle through.
         const double held = hip.sharp && (puncture || covered) ? std::min(delta, D) : delta;
         force = charged_contact_force(mat, held) * normal;
         contact_force = force.norm();
-        if (puncture) {
-          ChargedHole& hole = s.holes[static_cast<size_t>(s.next_hole)];
-          s.next_hole = (s.next_hole + 1) % kChargedMaxHoles;
-          hole.center = h, hole.axis = axis, hole.in_track = true, hole.open = true;
-          hole.surface = h - dist * normal, hole.normal = normal, hole.bristle = 0;
-          // The give below carries this tick's force from here on — only if the hand already felt
-          // the contact on the last tick: a tool that jumped into the layer gets no pop.
-          s.give = s.contact_peak > 0 ? force : Vec3::Zero();
-          s.give_age = 0;
-          s.engaged = false;
-          force.setZero();
-          for_each_candidate(m, h, R + D, [&](int i) {
-            if ((s.position(static_cast<size_t>(i)) - h).norm() < R) s.flags[static_cast<size_t>(i)] |= kReversed;
-          });
-          s.contact_peak = std::max(s.contact_peak, s.give.norm());
-          push_event(s, TissueEvent{s.time, "puncture", tissue, -dist, s.contact_peak});
-        }
+        if (puncture) open_hole();
       }
     }
-    // Figures: particles in the sphere of influence, and those at maximum displacement.
-    const double pinned_at = kPinnedFraction * D;
-    for_each_candidate(m, h, R + D, [&](int i) {
-      const auto k = static_cast<size_t>(i);
-      if (s.flags[k] & kReversed) return;
-      if (!((s.position(k) - h).squaredNorm() < R * R)) return;
-      ++s.stats.contacts;
-      if ((s.position(k) - m.origin(k)).norm() >= pinned_at) ++s.stats.pinned;
-    });
+    count_contacts();
   }
   if (in_track) {
     const double v_axial = hip.velocity.dot(axis);
@@ -166,21 +205,28 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
     // travel, not the tick; a reversal moves the friction smoothly through zero over ~z0.
     for (ChargedHole& hole : s.holes) {
       if (!hole.in_track) continue;
-      // Centring: the shaft point nearest the hole's centre is pulled back toward the track's line.
-      Vec3 q;
-      segment_distance(tail, h, hole.center, q);
-      Vec3 off = q - hole.center;
-      off -= off.dot(hole.axis) * hole.axis;
-      const double off_norm = off.norm();
-      if (off_norm > 0) force -= charged_track_force(mat, off_norm, R) * (off / off_norm);
-      // Friction on the length of shaft inside the layer (Okamura et al. 2004): the part of the
-      // segment tail → tip whose depth below the rest surface lies in [0, thickness], times the
-      // kinetic friction per unit length and the Dahl bristle's share of it.
+      // The length of shaft inside the layer: the part of the segment tail → tip whose depth below
+      // the rest surface lies in [0, thickness].
       const double d_tip = (hole.surface - h).dot(hole.normal), d_tail = (hole.surface - tail).dot(hole.normal);
       const double lo = std::min(d_tip, d_tail), hi = std::max(d_tip, d_tail);
       const double overlap = std::max(0.0, std::min(hi, T) - std::max(lo, 0.0));
       const double length = hi > lo ? overlap / (hi - lo) * (h - tail).norm() : 0.0;
       s.stats.shaft_in_layer += length;
+      // Centring: where the shaft's line passes the hole's centre, its offset e from the track's
+      // line is pulled back with F_p·tanh(e/R) — growing with e and saturating at F_p, however far
+      // the shaft is drifted or redirected: the layer holds it while it is inside. The layer grips
+      // over its first min(thickness, R) of shaft, so the pull fades to zero as the tip comes out
+      // (a redirected needle withdrawn is let go smoothly, no catch at the surface). A line, not the
+      // segment: on a straight withdrawal e stays as it was, and the pull only falls.
+      const double grip = std::min(T, R);
+      const double held = grip > 0 ? std::min(1.0, length / grip) : 1.0;
+      Vec3 off = h - hole.center;
+      off -= off.dot(axis) * axis;                 // the line's point nearest the centre, from it
+      off -= off.dot(hole.axis) * hole.axis;       // across the track
+      const double off_norm = off.norm();
+      if (off_norm > 0 && held > 0) force -= held * charged_track_force(mat, off_norm, R) * (off / off_norm);
+      // Friction on that length (Okamura et al. 2004): the kinetic friction per unit length times
+      // the Dahl bristle's share of it.
       const double x = v_axial * dt, target = x > 0 ? z0 : (x < 0 ? -z0 : hole.bristle);
       hole.bristle = target + (hole.bristle - target) * std::exp(-std::abs(x) / z0);
       force -= mat.friction_per_length * length * (hole.bristle / z0) * axis;
