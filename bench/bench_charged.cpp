@@ -5,6 +5,7 @@
 // and the generated CVC neck (BM_CvcSceneTick, cvc.yaml: skin, fat, the IJV and the carotid).
 #include <palpate/charged.h>
 #include <palpate/device.h>
+#include <palpate/run.h>
 #include <palpate/scene.h>
 #include <palpate/simulation.h>
 #include <palpate/tissue.h>
@@ -270,8 +271,46 @@ void scene_tick(benchmark::State& bs, const char* file) {
 void BM_NeedleSceneTick(benchmark::State& bs) { scene_tick(bs, "default.yaml"); }
 void BM_CvcSceneTick(benchmark::State& bs) { scene_tick(bs, "cvc.yaml"); }
 
+// The CVC tick as the haptic loop runs it with both tools on one neck (issue 35): cvc.yaml through
+// run_scene (headless, no plots), the needle's whole script, the probe either pressing firmly
+// (3 N, 12.7 mm) from 0.3 s to the end — every needle tick then maps the needle through the
+// probe's deformation (NeckCompression::to_rest) — or (arg 0) lifted off the skin: the same loop
+// without the mapping, for the ratio in one run. Counters: the loop's own per-tick work (median,
+// p99 over the run, µs) and its tissues stage's median.
+void BM_CvcRunTick(benchmark::State& bs) {
+  auto scene = load_scene(std::filesystem::path(PALPATE_DATA_DIR) / "scenes" / "cvc.yaml");
+  if (!scene || !scene->probe) {
+    bs.SkipWithError("cvc.yaml did not load with its probe");
+    return;
+  }
+  const bool pressing = bs.range(0) != 0;
+  scene->probe->device.waypoints = {{0.0, Vec3(0, 0.01, 0)}, {0.3, Vec3(0, pressing ? -0.0127 : 0.01, 0)}};
+  RunOptions o;
+  o.out = std::filesystem::temp_directory_path() / "palpate_bench_cvc_run";
+  o.plots = false;
+  std::vector<double> median, p99, tissues;
+  for (auto _ : bs) {
+    auto r = run_scene(*scene, o);
+    if (!r) {
+      bs.SkipWithError(r.error().message.c_str());
+      return;
+    }
+    median.push_back(r->step_median), p99.push_back(r->step_p99);
+    tissues.push_back(r->stages[size_t(TickStage::step_tissues)].median);
+  }
+  std::filesystem::remove_all(o.out);
+  auto mid = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  bs.counters["tick_median_us"] = 1e6 * mid(median);
+  bs.counters["tick_p99_us"] = 1e6 * mid(p99);
+  bs.counters["step_tissues_median_us"] = 1e6 * mid(tissues);
+}
+
 }  // namespace
 
 BENCHMARK(BM_ChargedTick)->Arg(1000)->Arg(2500)->Arg(5000)->Arg(10000)->Arg(1000000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_NeedleSceneTick)->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK(BM_CvcSceneTick)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK(BM_CvcRunTick)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);

@@ -55,7 +55,10 @@ py::dict metrics_dict(const TrainingMetrics& m) {
                   "passes"_a = m.passes, "redirections"_a = m.redirections, "flashback"_a = m.flashback,
                   "flashback_time"_a = m.flashback ? py::object(py::float_(m.flashback_time)) : py::object(py::none()),
                   "first_skin_puncture"_a = opt(m.first_skin_puncture), "time_to_flashback"_a = opt(m.time_to_flashback),
-                  "deepest_depth"_a = m.deepest_depth, "peak_force"_a = m.peak_force);
+                  "deepest_depth"_a = m.deepest_depth, "peak_force"_a = m.peak_force,
+                  "arterial_flashback"_a = m.arterial_flashback,
+                  "arterial_flashback_time"_a = m.arterial_flashback ? py::object(py::float_(m.arterial_flashback_time))
+                                                                     : py::object(py::none()));
 }
 
 py::dict stages_dict(const std::array<TimingFigures, kTickStageCount>& stages) {

@@ -179,6 +179,9 @@ int run_command(const RunArgs& a) {
                m.flashback ? fmt::format("{:.3f} s", m.time_to_flashback) : std::string("none"));
     fmt::print("           deepest tip {:.1f} mm below the skin, peak force {:.3f} N\n",
                m.deepest_depth * 1e3, m.peak_force);
+    if (m.arterial_flashback)
+      fmt::print("           arterial flashback at {:.3f} s: pulsatile, bright red (the carotid)\n",
+                 m.arterial_flashback_time);
     fmt::print("outputs    {}\n           {}\n", s.csv.string(), s.summary_json.string());
     for (const auto& p : s.plots) fmt::print("           {}\n", p.string());
     if (s.frames.size() <= 10) {

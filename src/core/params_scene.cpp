@@ -125,7 +125,7 @@ std::span<const Param<NeckDef>> param_table(const NeckDef*) {
       {"poisson", &D::poisson, 0.0, 0.499, "", "Poisson's ratio of the neck's soft tissue"},
       {"venous_pressure", &D::venous_pressure, 0.0, 5000.0, "Pa", "pressure in the vein (667 Pa = 5 mmHg; CVP 3–6 mmHg)"},
       {"vein_wall_stiffness", &D::vein_wall_stiffness, 1.0, 1e5, "Pa",
-       "the vein's tube-law stiffness K_p: how hard it resists collapse (Shapiro 1977)"},
+       "the vein's tube-law stiffness K_p: how hard it resists collapse (Shapiro 1977; thin wall: E h^3/(12(1-nu^2) R^3))"},
       {"arterial_pressure", &D::arterial_pressure, 1000.0, 30000.0, "Pa", "mean pressure in the artery (12400 Pa = 93 mmHg)"},
       {"pulse_pressure", &D::pulse_pressure, 0.0, 15000.0, "Pa", "systolic minus diastolic pressure (5330 Pa = 40 mmHg)"},
       {"heart_rate", &D::heart_rate, 0.0, 4.0, "Hz", "pulse frequency (0 = no pulse)"},

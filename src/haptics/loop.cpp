@@ -83,6 +83,7 @@ void HapticLoop::Impl::publish_metrics() noexcept {
   m_flashback.set(m.flashback ? 1 : 0), m_flashback_time.set(m.flashback_time);
   m_first_skin.set(m.first_skin_puncture), m_time_to_flashback.set(m.time_to_flashback);
   m_deepest.set(m.deepest_depth);
+  m_arterial.set(m.arterial_flashback ? 1 : 0), m_arterial_time.set(m.arterial_flashback_time);
 }
 
 void HapticLoop::Impl::thread_main() noexcept {
@@ -306,6 +307,7 @@ LoopStats HapticLoop::stats() const {
   tm.redirections = int(m.m_redirections.get()), tm.flashback = m.m_flashback.get() != 0;
   tm.flashback_time = m.m_flashback_time.get(), tm.first_skin_puncture = m.m_first_skin.get();
   tm.time_to_flashback = m.m_time_to_flashback.get(), tm.deepest_depth = m.m_deepest.get();
+  tm.arterial_flashback = m.m_arterial.get() != 0, tm.arterial_flashback_time = m.m_arterial_time.get();
   tm.peak_force = st.max_force;
   st.last_force = Vec3(m.needle().fx.get(), m.needle().fy.get(), m.needle().fz.get());
   st.last_position = Vec3(m.needle().px.get(), m.needle().py.get(), m.needle().pz.get());

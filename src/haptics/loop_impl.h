@@ -124,6 +124,7 @@ struct HapticLoop::Impl {
 
   // Haptic-thread state.
   ToolState tool;
+  ToolState seen;  // the tool as the tissues meet it: mapped to rest by the tools that deform them
   OutcomeState outcome;
   Vec3 scene_axis = Vec3(0, -1, 0);  // unit, the needle's direction at identity (device frame)
   std::uint64_t k = 0;               // ticks done
@@ -133,8 +134,8 @@ struct HapticLoop::Impl {
   LatencyHistogram period_h, step_h;
   StageTimes stages;
   RelaxedCount ticks, misses, resyncs;
-  RelaxedCount m_outcome, m_skin_punctures, m_passes, m_redirections, m_flashback;
-  RelaxedDouble m_flashback_time, m_first_skin, m_time_to_flashback, m_deepest;
+  RelaxedCount m_outcome, m_skin_punctures, m_passes, m_redirections, m_flashback, m_arterial;
+  RelaxedDouble m_flashback_time, m_first_skin, m_time_to_flashback, m_deepest, m_arterial_time;
   std::atomic<bool> running{false}, stop_requested{false}, priority{false};
   std::thread thread;
 

@@ -179,7 +179,11 @@ void outcome_event(const OutcomeModel& model, OutcomeState& s, const char* kind,
         s.vein_open |= bit;
       break;
     }
-    case Role::artery: s.artery = true; break;
+    case Role::artery:
+      s.artery = true;
+      // From outside: its lumen is entered next (an arterial flashback); from inside, out again.
+      if (t.shape == Shape::none || outward(t, tip).dot(axis) < 0) s.artery_open |= bit;
+      break;
     case Role::other: break;
   }
   s.metrics.outcome = classify(s);
@@ -253,6 +257,20 @@ bool outcome_tick(const OutcomeModel& model, OutcomeState& s, double time, const
       s.flashback_force = force;
       flashback_now = true;
     }
+  }
+  // The arterial flashback: the tip inside the lumen of an artery whose wall it has punctured.
+  s.arterial_now = false;
+  for (std::uint64_t open = s.artery_open; open != 0 && !m.arterial_flashback; open &= open - 1) {
+    const int i = __builtin_ctzll(open);
+    if (!tracked(model, i)) continue;
+    const OutcomeTissue& t = model.tissues[size_t(i)];
+    if (t.shape != Shape::none && !in_lumen(t, tip)) continue;
+    m.arterial_flashback = true;
+    m.arterial_flashback_time = time;
+    s.arterial_now = true;
+    s.arterial_tissue = i;
+    s.arterial_depth = depth_below(t, tip);
+    s.arterial_force = force;
   }
   m.outcome = classify(s);
   return flashback_now;

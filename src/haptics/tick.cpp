@@ -87,20 +87,53 @@ void HapticLoop::Impl::read_devices(TickState& ts) noexcept {
   tool.grasp = (n.state.buttons & 1u) != 0;
 }
 
-// 2. Tissues: inline ones step now; multi-rate ones render their linearised contact.
+// Where the shaft enters the skin at rest (the outcome's skin tissue): the point of the segment
+// handle → tip on the skin's rest surface, when the tip is more than 1 mm under it; else 1 mm
+// behind the tip.
+static Vec3 shaft_entry(const OutcomeModel& m, const ToolState& tool, double length) noexcept {
+  const Vec3 behind = tool.tip - 0.001 * tool.axis;
+  if (m.skin < 0 || !(length > 0.001)) return behind;
+  const OutcomeTissue& skin = m.tissues[size_t(m.skin)];
+  if (!(depth_below(skin, tool.tip) > 0.001) || !(depth_below(skin, tool.tip - length * tool.axis) < 0)) return behind;
+  double lo = 0, hi = length;  // depth_below > 0 at lo (the tip), < 0 at hi (the handle)
+  for (int k = 0; k < 40; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (depth_below(skin, tool.tip - mid * tool.axis) > 0 ? lo : hi) = mid;
+  }
+  return tool.tip - hi * tool.axis;
+}
+
+// 2. Tissues: inline ones step now; multi-rate ones render their linearised contact. They meet the
+// tool where it lies in them at rest: a tool that deforms them (the probe pressing the neck,
+// ToolForceModel::to_rest, posed by last tick's force) maps the needle there — its tip, and its
+// direction as the chord from where its shaft enters the skin to the tip (so a needle that went in
+// straight through tissue the probe had already deformed stays on its tracks; one the tissue moves
+// against is pushed sideways) — so both tools act on one neck (docs/ultrasound.md). Without one,
+// the tool as it is.
 void HapticLoop::Impl::step_tissues(TickState& ts) noexcept {
   const std::int64_t now = ts.deadline_ns ? monotonic_ns() : 0;
+  seen = tool;
+  for (size_t i = 1; i < tools.size(); ++i) {
+    const ToolSlot& x = *tools[i];
+    if (!x.def.model || x.read_fault != TickFault::none) continue;
+    Vec3 tip, entry;
+    if (!x.def.model->to_rest(tool.tip, tip) || !x.def.model->to_rest(shaft_entry(s.outcome, tool, tool.length), entry))
+      continue;
+    const Vec3 along = tip - entry;
+    if (tip.allFinite() && along.allFinite() && along.norm() > 1e-9) seen.tip = tip, seen.axis = along.normalized();
+    break;  // one tool deforms the tissues
+  }
   Vec3 f_rendered = Vec3::Zero();
   for (Slot& sl : slots) {
     std::span<double> figs(row.data() + sl.figure_offset, sl.figure_count);
     if (sl.worker) {
       Vec3 f;
-      const TickFault tf = sl.worker->render(tool, now, headless_now ? 0.0 : s.watchdog.stall_timeout, f, figs);
+      const TickFault tf = sl.worker->render(seen, now, headless_now ? 0.0 : s.watchdog.stall_timeout, f, figs);
       if (tf != TickFault::none && ts.fault == TickFault::none) ts.fault = tf;
       f_rendered += f;
       ts.j_rendered += sl.worker->jacobian();
     } else {
-      ts.f_inline += sl.tissue->step(tool, s.dt);
+      ts.f_inline += sl.tissue->step(seen, s.dt);
       // A step that reset its tissue returns an ordinary zero: count it and restart the ramp.
       if (sl.tissue->last_step_failed() && ts.fault == TickFault::none) ts.fault = TickFault::step_failed;
       sl.tissue->figures(figs);
@@ -199,12 +232,12 @@ void HapticLoop::Impl::record(TickState& ts) noexcept {
         // made it (at 100 Hz up to 10 ms past this tick): it happened by this tick, which reports
         // it, and no later — so the flashback it causes is never logged before it.
         const double when = slots[i].worker ? std::min(ev.time, ts.t) : ev.time;
-        outcome_event(s.outcome, outcome, ev.kind, int(i), when, tool.tip, tool.axis);
+        outcome_event(s.outcome, outcome, ev.kind, int(i), when, seen.tip, seen.axis);
         if (recorder) (void)recorder->push_event({when, ev.kind, int(i), ev.depth, ev.force});
       }
   }
   // The outcome after this tick's events: where the tip is now (as the tissues saw it).
-  const bool flashback = outcome_tick(s.outcome, outcome, ts.t, tool.tip, tool.axis, ts.force_norm);
+  const bool flashback = outcome_tick(s.outcome, outcome, ts.t, seen.tip, seen.axis, ts.force_norm);
   if (recorder && outcome.redirected)  // a new pass under the skin (docs/cvc.md, "Outcome and metrics")
     (void)recorder->push_event({ts.t, "redirect", s.outcome.skin, 0.0, ts.force_norm});
   if (recorder && outcome.left_model)  // into the body beyond the skin's edges: not scored
@@ -212,6 +245,9 @@ void HapticLoop::Impl::record(TickState& ts) noexcept {
   if (flashback && recorder)
     (void)recorder->push_event({ts.t, "flashback", outcome.flashback_tissue, outcome.flashback_depth,
                                 outcome.flashback_force});
+  if (outcome.arterial_now && recorder)  // pulsatile, bright red: the carotid (docs/cvc.md)
+    (void)recorder->push_event({ts.t, "arterial_flashback", outcome.arterial_tissue, outcome.arterial_depth,
+                                outcome.arterial_force});
 }
 
 // 7. Live figures for other threads: counts, forces, safety counters, metrics, each tool's sample.

@@ -123,16 +123,17 @@ Status plot_run(const std::filesystem::path& dir, const std::string& title, cons
   for (size_t i = 0; i < events.size();) {
     const double t = events[i].time;
     std::string names;
-    bool flashback = false, redirect = true;
+    bool flashback = false, arterial = false, redirect = true;
     size_t j = i;
     for (; j < events.size() && events[j].time - t <= 0.01 * span; ++j) {
       names += (j > i ? ", " : "") + events[j].kind + (events[j].kind == "redirect" ? "" : " " + events[j].tissue);
       flashback = flashback || events[j].kind == "flashback";
+      arterial = arterial || events[j].kind == "arterial_flashback";
       redirect = redirect && events[j].kind == "redirect";
     }
     i = j;
     const std::string label = quote(names);
-    const char* colour = flashback ? "#208040" : redirect ? "#6040c0" : "#c03030";
+    const char* colour = arterial ? "#ff0000" : flashback ? "#208040" : redirect ? "#6040c0" : "#c03030";
     marks_t += fmt::format(
         "set arrow {} from {:.6f}, graph 0 to {:.6f}, graph 1 nohead dt 2 lc rgb '{}'\n"
         "set label {} {} at {:.6f}, graph 0.03 rotate by 90 left noenhanced font ',9' tc rgb '{}'\n",

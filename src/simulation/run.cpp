@@ -445,6 +445,7 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
                   {"first_skin_puncture_s", time_or_null(tm.first_skin_puncture >= 0, tm.first_skin_puncture)},
                   {"flashback_s", time_or_null(tm.flashback, tm.flashback_time)},
                   {"time_to_flashback_s", time_or_null(tm.flashback, tm.time_to_flashback)},
+                  {"arterial_flashback_s", time_or_null(tm.arterial_flashback, tm.arterial_flashback_time)},
                   {"deepest_depth_m", tm.deepest_depth},
                   {"peak_force_N", tm.peak_force}};
   j["safety"] = {{"non_finite", sc.non_finite}, {"step_failed", sc.step_failed},

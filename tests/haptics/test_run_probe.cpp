@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <algorithm>
@@ -40,7 +41,7 @@ nlohmann::json summary(const fs::path& out) {
 
 }  // namespace
 
-TEST(RunProbe, TheCvcProbePressesWithinItsDeviceAndLeavesTheNeedleAsItWas) {
+TEST(RunProbe, TheCvcProbePressesWithinItsDeviceAndTheNeedleMeetsTheNeckItPressed) {
   palpate::SceneDef with = cvc();
   palpate::SceneDef without = with;
   without.probe.reset();
@@ -55,7 +56,7 @@ TEST(RunProbe, TheCvcProbePressesWithinItsDeviceAndLeavesTheNeedleAsItWas) {
   auto b = palpate::run_scene(without, o);
   ASSERT_TRUE(b.ok()) << b.error().message;
 
-  // The probe: a light rest (0.3–0.5 N), a firm check press (about 3 N) before the needle reaches
+  // The probe: a light rest (0.06 N), a firm check press (about 3 N) before the needle reaches
   // the skin, then light again while the needle goes in; within its device's limits throughout.
   ASSERT_EQ(a->tools.size(), 1u);
   const palpate::LoopToolStats& p = a->tools[0];
@@ -102,10 +103,34 @@ TEST(RunProbe, TheCvcProbePressesWithinItsDeviceAndLeavesTheNeedleAsItWas) {
   }
   EXPECT_GT(peak_before, 2.5) << "the check press comes before the needle";
   EXPECT_LT(max_during, 0.6) << "a light touch while the needle goes in";
-  EXPECT_GT(min_during, 0.2) << "and still on the skin";
+  EXPECT_GT(min_during, 0.02) << "and still on the skin";
 
-  // The needle: the same forces tick for tick, the same events and outcome (the probe's load is a
-  // separate model; the needle's tissues are not pressed by it).
+  // The needle meets the neck the probe has deformed (one neck under both tools, docs/ultrasound.md):
+  // the resting probe sinks the skin and the vein a little beside and under it, so the same script
+  // gives the same events in the same order and the same outcome, each within 0.15 s (0.75 mm of
+  // the needle's travel at 5 mm/s), the punctures at the same set forces.
+  ASSERT_EQ(a->ticks, b->ticks);
+  EXPECT_EQ(a->metrics.outcome, b->metrics.outcome);
+  ASSERT_EQ(a->events.size(), b->events.size());
+  for (size_t i = 0; i < a->events.size(); ++i) {
+    EXPECT_EQ(a->events[i].kind, b->events[i].kind);
+    EXPECT_EQ(a->events[i].tissue, b->events[i].tissue);
+    // Going in, the tissue it meets lies deeper (later); coming out, it is out sooner (earlier).
+    const double late = a->events[i].time - b->events[i].time;
+    EXPECT_LE(std::abs(late), 0.15) << a->events[i].kind << " " << a->events[i].tissue;
+    if (a->events[i].kind == "exit") EXPECT_LE(late, 0.0) << a->events[i].tissue;
+    else EXPECT_GE(late, 0.0) << a->events[i].kind << " " << a->events[i].tissue;
+    if (a->events[i].kind == "puncture") {
+      EXPECT_EQ(a->events[i].force, b->events[i].force);
+    }
+  }
+  fs::remove_all(out_a);
+  // Lifted off the skin the probe deforms nothing, and the needle is as it was without it.
+  palpate::SceneDef lifted = with;
+  lifted.probe->device.waypoints = {{0.0, Vec3(0, 0.01, 0)}};
+  o.out = out_a;
+  a = palpate::run_scene(lifted, o);
+  ASSERT_TRUE(a.ok()) << a.error().message;
   ASSERT_EQ(a->ticks, b->ticks);
   EXPECT_EQ(a->max_force, b->max_force);
   EXPECT_EQ(a->metrics.outcome, b->metrics.outcome);

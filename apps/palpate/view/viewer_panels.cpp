@@ -165,6 +165,9 @@ void Viewer::draw_panels() {
         ImGui::Text("flashback %.2f s after the skin puncture", m.time_to_flashback);
       else
         ImGui::TextDisabled("no flashback yet");
+      if (m.arterial_flashback)  // the carotid: pulsatile, bright red
+        ImGui::TextColored(ImVec4(1.0f, 0.25f, 0.2f, 1.0f), "ARTERIAL flashback at %.2f s: pulsatile, bright red",
+                           m.arterial_flashback_time);
       ImGui::Text("deepest %.1f mm below the skin  peak |F| %.2f N", 1e3 * m.deepest_depth, m.peak_force);
     }
   }

@@ -124,7 +124,7 @@ struct NeckDef {
   double tissue_modulus = 10e3;     // Pa, Young's modulus of the neck's soft tissue (fat ≈ 3, muscle ≈ 10–20 kPa)
   double poisson = 0.45;            // Poisson's ratio of the neck's soft tissue
   double venous_pressure = 667;     // Pa, pressure in the IJV (5 mmHg; normal CVP 3–6 mmHg)
-  double vein_wall_stiffness = 300; // Pa, the IJV's tube-law stiffness K_p (Shapiro 1977)
+  double vein_wall_stiffness = 40;  // Pa, the IJV's tube-law stiffness K_p (Shapiro 1977): E h³/(12(1−ν²)R³)
   double arterial_pressure = 12400; // Pa, mean pressure in the CCA (93 mmHg)
   double pulse_pressure = 5330;     // Pa, systolic minus diastolic (40 mmHg)
   double heart_rate = 1.2;          // Hz (72 beats per minute)

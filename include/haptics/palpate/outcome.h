@@ -32,6 +32,9 @@ struct TrainingMetrics {
   int redirections = 0;          // the passes that began under the skin (no new skin puncture)
   bool flashback = false;        // the tip entered a vein's lumen through a punctured wall
   double flashback_time = 0;     // s since the start of the run (when flashback)
+  bool arterial_flashback = false;     // the tip entered an artery's lumen through a punctured wall:
+                                       //   pulsatile, bright red blood (a complication)
+  double arterial_flashback_time = 0;  // s since the start of the run (when arterial_flashback)
   double first_skin_puncture = -1;  // s since the start of the run; < 0 = none
   double time_to_flashback = -1; // s from the first skin puncture (the run's start if none); < 0 = none
   double deepest_depth = 0;      // m, deepest tip below the skin's rest surface (0 if never below)
@@ -90,6 +93,7 @@ struct OutcomeState {
   TrainingMetrics metrics;
   std::uint64_t vein_open = 0;    // bit i: vein i punctured from outside (its lumen may be entered)
   std::uint64_t in_lumen = 0;     // bit i: the tip has been in vein i's lumen (shape none: opened)
+  std::uint64_t artery_open = 0;  // bit i: artery i punctured from outside (its lumen may be entered)
   bool posterior = false, artery = false;
   bool under_skin = false;        // a skin puncture, and the tip not back out above the skin since
   bool advancing = true;          // pass state: advancing (else withdrawn > pass_distance)
@@ -106,6 +110,11 @@ struct OutcomeState {
   int flashback_tissue = -1;
   double flashback_depth = 0;     // m, below the vein wall's rest surface
   double flashback_force = 0;     // N, force sent that tick
+  // The arterial flashback, once: this tick (for the caller's event), where and with what force.
+  bool arterial_now = false;
+  int arterial_tissue = -1;
+  double arterial_depth = 0;      // m, below the artery wall's rest surface
+  double arterial_force = 0;      // N, force sent that tick
 };
 
 // A tissue's event at `time` with the tip where the tissues saw it. Call for each event of a tick

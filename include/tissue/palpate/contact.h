@@ -66,6 +66,15 @@ class ToolForceModel {
  public:
   virtual ~ToolForceModel() = default;
   virtual Vec3 force(const Vec3& position, const Quat& orientation, double t) noexcept = 0;
+  // A model that deforms the tissues the other tools meet (the probe pressing the neck the needle
+  // goes into): where the tissue now at `x` lay at rest, under the pose of the last force() call.
+  // The tissues are built at rest, so the loop steps them with the other tools mapped through this:
+  // one tissue under both tools. Haptic thread: noexcept, no allocation. False (X untouched) when
+  // the model deforms nothing (the default) or has not been posed yet.
+  virtual bool to_rest(const Vec3& x, Vec3& X) const noexcept {
+    (void)x, (void)X;
+    return false;
+  }
 };
 
 }  // namespace palpate

@@ -5,11 +5,13 @@
 #pragma once
 
 #include <palpate/core.h>
+#include <palpate/anatomy.h>
 #include <palpate/contact.h>
 #include <palpate/scene_def.h>
 
 #include <complex>
 #include <cstdint>
+#include <limits>
 #include <filesystem>
 #include <span>
 #include <vector>
@@ -56,6 +58,9 @@ class NeckCompression final : public ToolForceModel {
   // normal (frictionless). Haptic thread: noexcept, no allocation; about a microsecond.
   Vec3 force(const Vec3& position, const Quat& orientation, double t) noexcept override;
   Vec3 probe_force(const ProbePose& pose) const noexcept;
+  // Where the tissue now at x lay at rest under the pose of the last force() call (ToolForceModel):
+  // the needle's layers, built at rest, meet the neck the probe has deformed. Haptic thread.
+  bool to_rest(const Vec3& x, Vec3& X) const noexcept override;
 
   // The deformation the probe causes at time t.
   struct State {
@@ -78,6 +83,14 @@ class NeckCompression final : public ToolForceModel {
   Vec3 displacement(const State& s, const Vec3& X) const noexcept;
   // Vertical (along the load) normal stress at X (Pa, compressive > 0).
   double stress(const State& s, const Vec3& X) const noexcept;
+  // The inverse of the deformation the image draws: the rest point X of the tissue now at x. The
+  // half-space's displacement inverted by fixed-point iteration (x = X + u(X)); near a vessel, its
+  // section mapped back onto its rest circle — the deformed wall onto the rest wall, the lumen onto
+  // the rest lumen, a point outside at its distance from the wall — blended into the half-space's
+  // map over two rest radii. So a needle meets the vessel's wall in its charged-particle layer
+  // exactly where the image shows the compressed wall, and is in its lumen exactly when the image
+  // shows the tip inside it. Allocation-free; a few microseconds near the vessels.
+  Vec3 rest_point(const State& s, const Vec3& x) const noexcept;
 
   const NeckDef& neck() const noexcept { return neck_; }
   const ProbeDef& probe() const noexcept { return probe_; }
@@ -91,12 +104,33 @@ class NeckCompression final : public ToolForceModel {
 
  private:
   State loads(const ProbePose& pose) const noexcept;  // the footprint's loads only (haptic thread)
+  State posed(const ProbePose& pose, double t) const noexcept;  // loads, the displacement's scale, the time
+  VesselSection section_geometry(const State& s, const Vec3& rest_centre, const Vec3& along, double radius) const noexcept;
+  void section_law(VesselSection& v, bool vein, double t) const noexcept;  // its tube law at time t
   VesselSection section(const State& s, const Vec3& rest_centre, const Vec3& along, double radius,
                         bool vein, double t) const noexcept;
   NeckDef neck_;
   ProbeDef probe_;
   double stiffness_ = 0;  // N/m
   double pulse_mean_ = 0; // the pulse shape's mean over a beat
+  VesselGeometry vein_geometry_, artery_geometry_;  // at rest
+  State posed_;           // the last force() call's (to_rest); its force 0 until then
+  // to_rest's vessel sections, reused for points within 0.1 mm along the vessels (the tip and the
+  // point behind it each tick) while the pose is the same. Haptic thread only.
+  struct SectionCache {
+    std::uint64_t pose = 0;  // the pose's generation now
+    struct Slot {
+      std::uint64_t pose = 0;  // the generation it was taken at; 0 = empty
+      double along = 0;        // m, the rest axial coordinate it was taken at
+      VesselSection geometry;  // section_geometry's part (no tube law)
+    } slots[2][2];             // [vessel][two places along it: the tip and where the shaft enters]
+    int next[2] = {0, 0};
+    Vec3 last_x = Vec3::Constant(std::numeric_limits<double>::quiet_NaN()), last_X = Vec3::Zero();
+  };
+  std::uint64_t posed_generation_ = 0;
+  ProbePose posed_pose_;
+  mutable SectionCache cache_;
+  Vec3 rest_point(const State& s, const Vec3& x, SectionCache* cache) const noexcept;
 };
 
 // A B-mode image: 8-bit grey, row 0 at the probe's face; and the envelope before log compression.
