@@ -15,8 +15,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <span>
 #include <string>
@@ -107,12 +105,6 @@ TrackRun run(const Script& script, const std::string& name, double dt = 0.001) {
   EXPECT_TRUE(expanded.ok()) << expanded.error().message;
   r.scene = *expanded;
   r.outcome = build_outcome_model(r.scene);
-  if (std::getenv("TRACK_DUMP")) {
-    FILE* f = std::fopen((std::string("/tmp/track_") + name + ".txt").c_str(), "w");
-    for (const RunEvent& e : r.summary.events) std::fprintf(f, "# %.4f %s %s %.5f %.4f\n", e.time, e.kind.c_str(), e.tissue.c_str(), e.depth, e.force);
-    for (const Row& w : r.rows) std::fprintf(f, "%.4f %.6f %.6f %.6f %.5f %.5f %.5f %.5f\n", w.t, w.tip.x(), w.tip.y(), w.tip.z(), w.force.x(), w.force.y(), w.force.z(), w.force.norm());
-    std::fclose(f);
-  }
   return r;
 }
 
