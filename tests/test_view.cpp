@@ -2,12 +2,14 @@
 // software OpenGL: it opens, draws the tissue where expected, takes screenshots, a scripted press
 // dents the tissue, shows the force arrow and reports the force, and it exits cleanly.
 #include <gtest/gtest.h>
+#include <palpate/core.h>
 
 #include "png_read.h"
 #include "sanitized.h"
 #include "shell_run.h"
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -21,6 +23,7 @@ namespace fs = std::filesystem;
 namespace {
 
 using palpate::test::Ran;
+using palpate::Vec3;
 Ran run(const std::string& cmd) { return palpate::test::shell_run(cmd); }
 
 bool have_xvfb() { return std::system("command -v xvfb-run >/dev/null 2>&1") == 0; }
@@ -179,6 +182,72 @@ TEST_F(View, ANeedlePressedThroughTheSkinCountsTheSkinPunctureLive) {
   ASSERT_EQ(std::sscanf(r.out.c_str() + at, "tool: %lf %lf %lf", &x, &y, &z), 3);
   EXPECT_GT(-y, 0.004) << r.out;
   EXPECT_NEAR(number_after(r.out, "deepest_depth_m:"), -y, 2e-4) << r.out;
+}
+
+namespace {
+
+// The printed "tool: x y z" of a viewer run.
+Vec3 exit_tool(const std::string& out) {
+  const size_t at = out.find("tool: ");
+  double x = NAN, y = NAN, z = NAN;
+  if (at != std::string::npos) std::sscanf(out.c_str() + at, "tool: %lf %lf %lf", &x, &y, &z);
+  return Vec3(x, y, z);
+}
+
+// Where the scene camera draws world point p in a width × height window (the viewer's
+// OrbitCamera::project: y up, fov vertical, pixel (0, 0) the top-left corner).
+Eigen::Vector2d pixel_of(const Vec3& eye, const Vec3& target, double fov, int width, int height, const Vec3& p) {
+  const Vec3 f = (target - eye).normalized(), r = f.cross(Vec3::UnitY()).normalized(), u = r.cross(f);
+  const Vec3 d = p - eye;
+  const double t = std::tan(fov * 3.14159265358979323846 / 360.0), z = d.dot(f);
+  const double nx = d.dot(r) / (z * t * (double(width) / height)), ny = d.dot(u) / (z * t);
+  return Eigen::Vector2d((nx + 1.0) * 0.5 * width, (1.0 - ny) * 0.5 * height);
+}
+
+}  // namespace
+
+// Issue 35: the wheel and --probe moved the needle along the eye's ray, 54° off its shaft with the
+// cvc camera (one press moved the tip 8.8 mm sideways). A needle now goes in along its own shaft:
+// two presses at the same pixel, 2 and 6 mm deep, end 4 mm apart along the needle's axis.
+TEST_F(View, APressMovesANeedleAlongItsOwnShaftNotTheEyesRay) {
+  const fs::path file = dir_ / "oblique.yaml";
+  const Vec3 axis = Vec3(0.5, -0.70711, 0.5).normalized();
+  std::ofstream(file) << "name: view-oblique\nduration: 1\ndt: 0.001\noutput: out\n"
+                         "tool: {kind: needle, radius: 0.0004, length: 0.06, axis: [0.5, -0.70711, 0.5]}\n"
+                         "device:\n  kind: scripted\n  waypoints:\n    - {t: 0, position: [0, 0.01, 0]}\n"
+                         "camera: {position: [0, 0.05, 0.045], target: [0, 0, 0], fov: 40, width: 400, height: 300}\n"
+                         "tissues:\n  - name: skin\n    role: skin\n    model: charged_particles\n"
+                         "    patch: {shape: flat, width: 0.04, height: 0.04, spacing: 0.001}\n"
+                         "    material: {max_displacement: 0.003, puncture_force: 1.0, particle_radius: 0.001}\n";
+  const Ran shallow = view(file.string() + " --frames 5 --exit --no-panels --probe 200,150,0.002 --overrun-margin 0.05");
+  const Ran deep = view(file.string() + " --frames 5 --exit --no-panels --probe 200,150,0.006 --overrun-margin 0.05");
+  ASSERT_EQ(shallow.code, 0) << shallow.out;
+  ASSERT_EQ(deep.code, 0) << deep.out;
+  const Vec3 moved = exit_tool(deep.out) - exit_tool(shallow.out);
+  ASSERT_TRUE(moved.allFinite()) << shallow.out << deep.out;
+  EXPECT_NEAR(moved.dot(axis), 0.004, 1e-4) << moved.transpose();
+  EXPECT_LT((moved - moved.dot(axis) * axis).norm(), 1e-4) << "sideways: " << moved.transpose();
+  // The eye's ray at the window's centre is 36° off this needle: along it, the 4 mm would have
+  // gone 2.4 mm sideways.
+  const Vec3 ray = (Vec3(0, 0, 0) - Vec3(0, 0.05, 0.045)).normalized();
+  EXPECT_GT(std::acos(ray.dot(axis)) * 180 / 3.14159265358979323846, 30.0);
+}
+
+// Issue 35's done-when: in the viewer, a scripted mouse advances the CVC needle into the vein along
+// its shaft and the outcome becomes `vein`. The pixel is where the camera draws the needle's entry
+// point on the skin (z = −17.9 mm above the vein's axis along the 45° needle); the depth, 25.3 mm,
+// reaches the vein's centre.
+TEST_F(View, AScriptedMouseAdvancesTheCvcNeedleIntoTheVeinAlongItsShaft) {
+  const Eigen::Vector2d px =
+      pixel_of(Vec3(-0.05, 0.055, -0.01), Vec3(0.003, -0.01, -0.006), 40, 640, 480, Vec3(0, 0, -0.0179));
+  const std::string probe = std::to_string(int(std::lround(px.x()))) + "," + std::to_string(int(std::lround(px.y()))) + ",0.0253";
+  Ran r = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 5 --exit --no-panels --probe " + probe +
+               " --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("outcome: vein"), std::string::npos) << probe << "\n" << r.out;
+  EXPECT_EQ(number_after(r.out, "skin_punctures:"), 1.0) << r.out;
+  const Vec3 tip = exit_tool(r.out);
+  EXPECT_NEAR(tip.x(), 0.0, 0.001) << r.out;  // on the vein's plane: gone in along the shaft
 }
 
 TEST_F(View, TheCvcSceneHoldsTheUltrasoundProbeOnTheSkinAndShowsItsImage) {

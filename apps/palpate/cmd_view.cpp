@@ -72,7 +72,8 @@ void add_view_command(CLI::App& app) {
   view->add_option("--screenshot", args->options.screenshot,
                    "PNG written on exit (and by the F12 / S key); written atomically");
   view->add_option("--probe", args->probe,
-                   "Press the tool in at start: x,y (window pixels) and depth (m) past the surface there");
+                   "Press the tool in at start: x,y (window pixels) and depth (m) past the surface there "
+                   "(a needle along its own shaft, a sphere along the eye's ray)");
   view->add_option("--width", args->options.width, "Window width in pixels (default: the scene camera's)")
       ->check(CLI::Range(0, 8192));
   view->add_option("--height", args->options.height, "Window height in pixels (default: the scene camera's)")

@@ -174,17 +174,24 @@ void Viewer::frame_input(int width, int height) {
     press_distance_ = hit ? *hit : (camera_.target - eye).dot(camera_.forward()) / dir.dot(camera_.forward());
     press_depth_ = -tool_radius() + 0.001;
   } else if (!right && pressing_) {
-    // Release: back out along the ray to just above the surface.
+    // Release: back out (along the needle's shaft, or the ray) to just above the surface.
     pressing_ = false;
-    feeder_->set_target(eye + dir * (press_distance_ - tool_radius() - 0.003));
+    feeder_->set_target(eye + dir * press_distance_ - press_direction(dir) * (tool_radius() + 0.003));
     return;
   }
   if (pressing_) {
+    // The wheel advances and withdraws a needle along its own shaft (a sphere along the ray), from
+    // the surface point under the cursor.
     press_depth_ += notches * 0.0005;  // 0.5 mm per wheel notch, forward = deeper
-    feeder_->set_target(eye + dir * (press_distance_ + press_depth_));
+    feeder_->set_target(eye + dir * press_distance_ + press_direction(dir) * press_depth_);
   } else if (!ui && notches != 0) {
     camera_.zoom(notches);
   }
+}
+
+Vec3 Viewer::press_direction(const Vec3& ray) const {
+  if (scene_.tool.kind != "needle") return ray;
+  return needle_axis(scene_axis(), feeder_->orientation_target());
 }
 
 void Viewer::restart_settle() {
@@ -206,8 +213,11 @@ bool Viewer::scripted_probe_step(int width, int height) {
                    p.x, p.y, width, height);
         return false;
       }
-      probe_final_ = eye + dir * (*hit + p.depth);
-      feeder_->set_target(eye + dir * (*hit - tool_radius() - 0.003));
+      // A needle goes in along its own shaft from the surface point under the pixel, a sphere along
+      // the ray.
+      const Vec3 along = press_direction(dir);
+      probe_final_ = eye + dir * *hit + along * p.depth;
+      feeder_->set_target(eye + dir * *hit - along * (tool_radius() + 0.003));
       stage_ = ProbeStage::approach;
       break;
     }

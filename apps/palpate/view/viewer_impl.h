@@ -120,6 +120,9 @@ class Viewer {
   double tool_radius() const { return scene_.tool.radius; }
   // The needle's direction in the device frame (the scene's tool.axis), unit.
   Vec3 scene_axis() const { return scene_.tool.axis.normalized(); }
+  // Which way a press moves the tool: a needle along its own shaft (as the device has it turned),
+  // a sphere along the eye's ray through the cursor.
+  Vec3 press_direction(const Vec3& ray) const;
   static constexpr double kTiltRadiansPerPixel = 0.5 * M_PI / 180;
 
   static void on_scroll(GLFWwindow* window, double dx, double dy);
@@ -168,7 +171,7 @@ class Viewer {
   // Mouse as a haptic device.
   bool pressing_ = false;    // right button held: the tool follows the cursor into the tissue
   double press_distance_ = 0;  // m along the ray from the eye to the surface picked at the press
-  double press_depth_ = 0;     // m, the HIP's depth beyond that surface (wheel changes it)
+  double press_depth_ = 0;     // m, the HIP's depth beyond that surface (wheel changes it), along press_direction
   double last_x_ = 0, last_y_ = 0;
   double scroll_ = 0;          // wheel notches since the last frame
   bool screenshot_key_ = false;
