@@ -391,6 +391,10 @@ int Viewer::run() {
     const double t = std::chrono::duration<double>(now - start_).count();
     force_history_.emplace_back(t, static_cast<float>(force_.norm()));
     while (!force_history_.empty() && force_history_.front().first < t - 6.0) force_history_.pop_front();
+    if (probe_device_) {
+      probe_history_.emplace_back(t, static_cast<float>(probe_device_->force().norm()));
+      while (!probe_history_.empty() && probe_history_.front().first < t - 6.0) probe_history_.pop_front();
+    }
 
     if (imgui_ready_) {
       ImGui_ImplOpenGL3_NewFrame();

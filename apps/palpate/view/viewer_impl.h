@@ -188,6 +188,7 @@ class Viewer {
   // Live force.
   Vec3 force_ = Vec3::Zero();
   std::deque<std::pair<double, float>> force_history_;  // (s since start, |F| N), the last few seconds
+  std::deque<std::pair<double, float>> probe_history_;  // the same for the ultrasound probe (a scene with one)
   Clock::time_point start_ = Clock::now();
   double fps_ = 0;
 

@@ -139,20 +139,28 @@ void Viewer::draw_panels() {
       ImGui::Text("needle (%.2f, %.2f, %.2f), %.1f deg from tool.axis", a.x(), a.y(), a.z(),
                   std::acos(std::clamp(a.dot(scene_axis()), -1.0, 1.0)) * 180 / M_PI);
     }
-    // |F| over the last 5 s, resampled to fixed bins (frames are not evenly spaced).
+    // |F| over the last 5 s, resampled to fixed bins (frames are not evenly spaced); the probe's
+    // too, in a scene with one (what the other hand presses with).
     constexpr int kBins = 150;
     constexpr double kSpan = 5.0;
-    float bins[kBins] = {};
     const double now = std::chrono::duration<double>(Clock::now() - start_).count();
-    size_t k = 0;
-    float last = 0;
-    for (int b = 0; b < kBins; ++b) {
-      const double t = now - kSpan + kSpan * (b + 1) / kBins;
-      while (k < force_history_.size() && force_history_[k].first <= t) last = force_history_[k++].second;
-      bins[b] = last;
+    auto plot = [&](const char* id, const char* label, const std::deque<std::pair<double, float>>& history) {
+      float bins[kBins] = {};
+      size_t k = 0;
+      float last = 0;
+      for (int b = 0; b < kBins; ++b) {
+        const double t = now - kSpan + kSpan * (b + 1) / kBins;
+        while (k < history.size() && history[k].first <= t) last = history[k++].second;
+        bins[b] = last;
+      }
+      const float top = std::max(0.5f, *std::max_element(bins, bins + kBins) * 1.1f);
+      ImGui::PlotLines(id, bins, kBins, 0, label, 0.0f, top, ImVec2(-1, 80));
+    };
+    plot("##force", "|F| (N), last 5 s", force_history_);
+    if (probe_device_) {
+      ImGui::Text("probe |F| %.3f N", probe_history_.empty() ? 0.0 : double(probe_history_.back().second));
+      plot("##probe_force", "probe |F| (N), last 5 s", probe_history_);
     }
-    const float top = std::max(0.5f, *std::max_element(bins, bins + kBins) * 1.1f);
-    ImGui::PlotLines("##force", bins, kBins, 0, "|F| (N), last 5 s", 0.0f, top, ImVec2(-1, 80));
   }
   if (scene_.tool.kind == "needle" && ImGui::CollapsingHeader("Outcome", ImGuiTreeNodeFlags_DefaultOpen)) {
     // Live from the haptic loop's relaxed counters (docs/cvc.md, "Outcome and metrics"); a tissue
