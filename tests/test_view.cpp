@@ -250,6 +250,38 @@ TEST_F(View, AScriptedMouseAdvancesTheCvcNeedleIntoTheVeinAlongItsShaft) {
   EXPECT_NEAR(tip.x(), 0.0, 0.001) << r.out;  // on the vein's plane: gone in along the shaft
 }
 
+// Issue 35: the Force panel's 5 s trace was drawn 2 px wide (this ImGui takes PlotLines' width
+// of -1 literally) and the panel's text was cut off at the default 800 x 600. With the panels in
+// the screenshot (--screenshot-panels) and the needle pressed into the cvc neck: the traces are
+// drawn across the panel — rows of their frames' colour more than 300 columns wide (84 here, two
+// 80-row frames less the rows their labels and lines cross; none before) — in a panel wide enough
+// for its lines (410 px).
+TEST_F(View, TheForcePanelDrawsTheNeedlesAndTheProbesTracesAt800x600) {
+  const Eigen::Vector2d px =
+      pixel_of(Vec3(-0.05, 0.055, -0.01), Vec3(0.003, -0.01, -0.006), 40, 800, 600, Vec3(0, 0, -0.0179));
+  const std::string probe = std::to_string(int(std::lround(px.x()))) + "," + std::to_string(int(std::lround(px.y()))) + ",0.0253";
+  const fs::path shot = dir_ / "panels.png";
+  Ran r = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 30 --exit --probe " + probe +
+               " --overrun-margin 0.05 --width 800 --height 600 --screenshot " + shot.string() + " --screenshot-panels");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Png png = load_png(shot);
+  ASSERT_EQ(png.width, 800);
+  ASSERT_EQ(png.height, 600);
+  // The plot frame's colour: ImGui's dark style FrameBg (0.16, 0.29, 0.48, 0.54) over the panel's
+  // background, blue well above red.
+  auto frame = [](const unsigned char* p) { return p[2] > 55 && p[2] < 95 && p[1] > 35 && p[1] < 60 && p[0] < 45; };
+  int rows_with_wide_run = 0;
+  for (int y = 0; y < png.height; ++y) {
+    int run = 0, longest = 0;
+    for (int x = 0; x < 430; ++x) {
+      run = frame(png.at(x, y)) ? run + 1 : 0;
+      longest = std::max(longest, run);
+    }
+    rows_with_wide_run += longest > 300;
+  }
+  EXPECT_GT(rows_with_wide_run, 60) << "the traces' frames, 80 rows each, over 300 px wide";
+}
+
 TEST_F(View, TheCvcSceneHoldsTheUltrasoundProbeOnTheSkinAndShowsItsImage) {
   // data/scenes/cvc.yaml has a probe: a second virtual device resting on the neck (its first
   // waypoint, face 1 mm into the skin: 0.061 N), its force through its own safety filter, and the

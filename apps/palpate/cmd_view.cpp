@@ -89,6 +89,8 @@ void add_view_command(CLI::App& app) {
       ->check(CLI::Range(0.0, 60.0));
   // A callback, not "!--no-panels" bound to the bool: CLI11 would print that one's value ({false}) in --help.
   view->add_flag_callback("--no-panels", [args] { args->options.panels = false; }, "Hide the ImGui panels");
+  view->add_flag_callback("--screenshot-panels", [args] { args->options.screenshot_panels = true; },
+                          "Take the exit --screenshot with the panels drawn (as the trainee sees the window)");
   add_output_flags(view, args->options.quiet, args->verbose);
   view->callback([args] { throw CLI::RuntimeError(view_command(*args)); });
 }

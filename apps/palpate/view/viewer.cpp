@@ -416,7 +416,9 @@ int Viewer::run() {
       ++screenshot_count_;
       shot_taken = take_screenshot(file, fb_width, fb_height) && file == options_.screenshot;
     }
-    if (last && !options_.screenshot.empty() && !shot_taken && !take_screenshot(options_.screenshot, fb_width, fb_height))
+    const bool shot_with_panels = options_.screenshot_panels && imgui_ready_;
+    if (last && !options_.screenshot.empty() && !shot_taken && !shot_with_panels &&
+        !take_screenshot(options_.screenshot, fb_width, fb_height))
       code = 1;
     if (imgui_ready_) {
       if (options_.panels) {
@@ -425,6 +427,10 @@ int Viewer::run() {
       }
       ImGui::Render();
       ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+      // --screenshot-panels: the exit screenshot as the window shows it, panels and all.
+      if (last && shot_with_panels && !options_.screenshot.empty() && !shot_taken &&
+          !take_screenshot(options_.screenshot, fb_width, fb_height))
+        code = 1;
     }
     glfwSwapBuffers(window_);
     ++frames;

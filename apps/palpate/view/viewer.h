@@ -31,6 +31,7 @@ struct ViewerOptions {
   double settle = 0.5;               // s a scripted probe holds still before the exit screenshot
   double timeout = 60;               // s of wall time an exit_after run may take before it fails
   bool panels = true;                // draw the ImGui panels
+  bool screenshot_panels = false;    // the exit screenshot with the panels drawn over the scene
 };
 
 // Open the window and run until it is closed (or, with exit_after, until done). Returns the

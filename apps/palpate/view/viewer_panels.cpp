@@ -109,8 +109,12 @@ void Viewer::finish_rebuild() {
 }
 
 void Viewer::draw_panels() {
+  // Wide enough for its longest line (410 px), never taller than the window (it scrolls): at the
+  // default 800 x 600 nothing is cut off and it stays left of the ultrasound panel.
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
   ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(340, 0), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(410, 0), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSizeConstraints(ImVec2(200, 100), ImVec2(std::max(200.0f, display.x - 16), std::max(100.0f, display.y - 16)));
   ImGui::Begin("palpate");
   ImGui::Text("%s  %.0f fps", scene_.name.c_str(), fps_);
   if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) {
@@ -154,7 +158,9 @@ void Viewer::draw_panels() {
         bins[b] = last;
       }
       const float top = std::max(0.5f, *std::max_element(bins, bins + kBins) * 1.1f);
-      ImGui::PlotLines(id, bins, kBins, 0, label, 0.0f, top, ImVec2(-1, 80));
+      // The width given, not -1: this ImGui's PlotLines takes a negative width literally (the trace
+      // was a 2 px sliver).
+      ImGui::PlotLines(id, bins, kBins, 0, label, 0.0f, top, ImVec2(std::max(50.0f, ImGui::GetContentRegionAvail().x), 80));
     };
     plot("##force", "|F| (N), last 5 s", force_history_);
     if (probe_device_) {
