@@ -54,7 +54,7 @@ struct Script {
     return *this;
   }
   // Turned by `deg` about `about` through `pivot` over `seconds`, in 10 steps (an arc, not a chord).
-  Script& turn(const Vec3& pivot, const Vec3& about, double deg, double seconds) {
+  Script& turn(const Vec3 pivot, const Vec3& about, double deg, double seconds) {  // pivot by value: it may be at()
     const Vec3 p0 = at(), d0 = dir();
     const double t0 = t();
     for (int k = 1; k <= 10; ++k) {
