@@ -103,7 +103,8 @@ TEST(CvcScenes, EachVariantGivesItsOutcomeWithTheNeedleFeelIntact) {
     long ijv, cca;  // punctures expected
     Outcome outcome;
   } cases[] = {{"cvc.yaml", 1, 0, Outcome::vein}, {"cvc-deep-vein.yaml", 1, 0, Outcome::vein},
-               {"cvc-small-vein.yaml", 2, 0, Outcome::posterior_wall}, {"cvc-overlap.yaml", 2, 1, Outcome::artery}};
+               {"cvc-small-vein.yaml", 2, 0, Outcome::posterior_wall}, {"cvc-overlap.yaml", 2, 1, Outcome::artery},
+               {"cvc-in-plane.yaml", 1, 0, Outcome::vein}};
   for (const Case& c : cases) {
     const Shipped s = run_shipped(c.file);
     EXPECT_EQ(s.run.metrics.outcome, c.outcome) << c.file;

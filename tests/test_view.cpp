@@ -8,6 +8,7 @@
 #include "sanitized.h"
 #include "shell_run.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -280,6 +281,92 @@ TEST_F(View, TheForcePanelDrawsTheNeedlesAndTheProbesTracesAt800x600) {
     rows_with_wide_run += longest > 300;
   }
   EXPECT_GT(rows_with_wide_run, 60) << "the traces' frames, 80 rows each, over 300 px wide";
+}
+
+// The exit report's `needle_axis:` line (unit).
+Vec3 exit_needle_axis(const std::string& out) {
+  const size_t at = out.find("needle_axis: ");
+  double x = NAN, y = NAN, z = NAN;
+  if (at != std::string::npos) std::sscanf(out.c_str() + at, "needle_axis: %lf %lf %lf", &x, &y, &z);
+  return Vec3(x, y, z);
+}
+
+// cvc.yaml's needle script: 7 mm above the skin at (0, 4.94, -22.84) mm, held to 0.5 s, then along
+// its 45° axis to the vein's centre (0, -17.9, 0) mm at 6.96 s.
+Vec3 cvc_script_tip(double t) {
+  const Vec3 a(0, 0.00494, -0.02284), b(0, -0.0179, 0);
+  return a + std::clamp((t - 0.5) / 6.46, 0.0, 1.0) * (b - a);
+}
+
+// Issue 35, item 5: the scene's scripted needle (and probe) play in the viewer, through the same
+// virtual devices the mouse drives: played to 7.5 s, the tip is where the script holds it, in the
+// vein, and the Outcome panel says so; played to 2 s, it is where the script has it then, above
+// the skin, with no puncture.
+TEST_F(View, TheScenesScriptPlaysInTheViewerIntoTheVein) {
+  Ran r = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 2 --exit --no-panels --play-to 7.5"
+               " --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NEAR(number_after(r.out, "script_time:"), 7.5, 1e-9) << r.out;
+  EXPECT_NE(r.out.find("outcome: vein"), std::string::npos) << r.out;
+  EXPECT_EQ(number_after(r.out, "skin_punctures:"), 1.0) << r.out;
+  EXPECT_LT((exit_tool(r.out) - cvc_script_tip(7.5)).norm(), 1e-5) << r.out;
+  Ran early = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 2 --exit --no-panels --play-to 2"
+                   " --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(early.code, 0) << early.out;
+  EXPECT_NE(early.out.find("outcome: none"), std::string::npos) << early.out;
+  EXPECT_EQ(number_after(early.out, "skin_punctures:"), 0.0) << early.out;
+  EXPECT_LT((exit_tool(early.out) - cvc_script_tip(2.0)).norm(), 1e-5) << early.out;
+}
+
+// N steps the script 0.1 s and pauses (pressed through the key handler, --keys): ten steps put the
+// clock at 1.0 s and the needle where the script has it then.
+TEST_F(View, TheStepKeyStepsTheScriptATenthOfASecond) {
+  Ran r = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 2 --exit --no-panels --keys nnnnnnnnnn"
+               " --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NEAR(number_after(r.out, "script_time:"), 1.0, 1e-9) << r.out;
+  EXPECT_LT((exit_tool(r.out) - cvc_script_tip(1.0)).norm(), 1e-5) << r.out;
+}
+
+// V turns the probe 90° about its beam: cvc.yaml's transverse probe sees the needle out of plane
+// (its shaft crosses the image as a dot); turned, the needle lies in the image plane.
+TEST_F(View, TheVKeyTurnsTheProbeBetweenOutOfPlaneAndInPlane) {
+  Ran r = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 60 --exit --no-panels"
+               " --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("probe_view: out-of-plane"), std::string::npos) << r.out;
+  Ran turned = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 60 --exit --no-panels --keys v"
+                    " --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(turned.code, 0) << turned.out;
+  EXPECT_NE(turned.out.find("probe_view: in-plane"), std::string::npos) << turned.out;
+  Ran back = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 60 --exit --no-panels --keys vv"
+                  " --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(back.code, 0) << back.out;
+  EXPECT_NE(back.out.find("probe_view: out-of-plane"), std::string::npos) << back.out;
+}
+
+// A ctrl + left drag tilts the needle about the skin hole once it is through the skin: the shaft
+// still passes through the hole, the tip swung the other way; above the skin, about the tip.
+TEST_F(View, ATiltInsideTheSkinTurnsTheNeedleAboutItsHole) {
+  const Vec3 axis0 = Vec3(0, -1, 1).normalized();
+  Ran r = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 2 --exit --no-panels --play-to 5 --tilt 20,0"
+               " --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const Vec3 tip0 = cvc_script_tip(5.0);
+  const Vec3 hole = tip0 + (-tip0.y() / axis0.y()) * axis0;  // where the shaft crossed the skin (y = 0)
+  const Vec3 tip = exit_tool(r.out), axis = exit_needle_axis(r.out);
+  ASSERT_TRUE(tip.allFinite() && axis.allFinite()) << r.out;
+  EXPECT_GT(std::acos(std::clamp(axis.dot(axis0), -1.0, 1.0)) * 180 / M_PI, 5.0) << r.out;
+  EXPECT_GT((tip - tip0).norm(), 0.0015) << "the tip swung about the hole\n" << r.out;
+  EXPECT_LT((hole - tip).cross(axis).norm(), 0.0005) << "the shaft still through the hole\n" << r.out;
+  EXPECT_NEAR((tip - hole).norm(), (tip0 - hole).norm(), 0.0005) << r.out;
+  EXPECT_EQ(number_after(r.out, "skin_punctures:"), 1.0) << r.out;
+  EXPECT_LT(number_after(r.out, "force_N:"), 3.3) << r.out;
+  Ran above = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 2 --exit --no-panels --play-to 1 --tilt 20,0"
+                   " --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(above.code, 0) << above.out;
+  EXPECT_LT((exit_tool(above.out) - cvc_script_tip(1.0)).norm(), 1e-5) << "about the tip\n" << above.out;
+  EXPECT_GT(std::acos(std::clamp(exit_needle_axis(above.out).dot(axis0), -1.0, 1.0)) * 180 / M_PI, 5.0) << above.out;
 }
 
 TEST_F(View, TheCvcSceneHoldsTheUltrasoundProbeOnTheSkinAndShowsItsImage) {

@@ -1,12 +1,14 @@
 // test_view_parts.cpp — the viewer's GUI-free parts: the orbit camera's geometry, ray picking, the
 // needle tilted by a mouse drag, and SnapshotTissue's hand-over of positions from a stepping
-// thread to a reading thread.
+// thread to a reading thread; the player of a scene's scripted tools.
 #include <gtest/gtest.h>
 
 // The viewer lives in the app (it links GUI libraries the test binary must not); these two
 // sources of it use only palpate's public headers, so they are compiled in here.
 #include "../apps/palpate/view/camera.cpp"
 #include "../apps/palpate/view/tool_tilt.cpp"
+#include "../apps/palpate/view/script_player.cpp"
+#include <palpate/scene.h>
 #include <palpate/device.h>
 #include <palpate/snapshot_tissue.h>
 
@@ -214,6 +216,73 @@ TEST(ViewSnapshot, ReaderNeverSeesATornCopyAndSteadyStateNeverGrowsArrays) {
   EXPECT_EQ(torn, 0);
   EXPECT_FALSE(backwards);  // copies arrive in step order
   EXPECT_EQ(t.capacity_growths(), 0u);
+}
+
+// The viewer's script player: its clock plays, pauses, steps and stops where told, and the poses it
+// gives are the scene's scripted devices' at that clock, the needle's and the probe's.
+TEST(ViewScript, PlaysPausesAndStepsTheScenesScriptedTools) {
+  auto scene = palpate::parse_scene(
+      "duration: 2\n"
+      "tool: {kind: needle, axis: [0, -1, 0]}\n"
+      "device: {kind: scripted, waypoints: [{t: 0, position: [0, 0.01, 0]}, {t: 1, position: [0, -0.01, 0], direction: [0, -1, 1]}]}\n"
+      "anatomy: {kind: neck}\n"
+      "probe: {device: {kind: scripted, waypoints: [{t: 0, position: [0, 0, 0]}, {t: 2, position: [0, -0.004, 0]}]}}\n",
+      "s.yaml");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  palpate::view::ScriptPlayer p(*scene);
+  ASSERT_TRUE(p.has_tool());
+  ASSERT_TRUE(p.has_probe());
+  EXPECT_EQ(p.error(), "");
+  EXPECT_DOUBLE_EQ(p.duration(), 2.0);
+  EXPECT_FALSE(p.playing());
+  EXPECT_TRUE(p.moved()) << "the first poses are to be taken";
+  EXPECT_FALSE(p.moved());
+  p.advance(0.5);  // paused: the clock stays
+  EXPECT_EQ(p.time(), 0.0);
+  EXPECT_FALSE(p.moved());
+  p.play();
+  p.advance(0.25);
+  EXPECT_DOUBLE_EQ(p.time(), 0.25);
+  EXPECT_TRUE(p.moved());
+  palpate::DeviceState s;
+  ASSERT_TRUE(p.tool_pose(s));
+  EXPECT_TRUE(s.position.isApprox(Vec3(0, 0.005, 0), 1e-12));
+  ASSERT_TRUE(p.probe_pose(s));
+  EXPECT_TRUE(s.position.isApprox(Vec3(0, -0.0005, 0), 1e-12));
+  p.toggle();  // pause
+  p.advance(1.0);
+  EXPECT_DOUBLE_EQ(p.time(), 0.25);
+  p.step(palpate::view::ScriptPlayer::kStep);
+  EXPECT_NEAR(p.time(), 0.35, 1e-12);
+  EXPECT_FALSE(p.playing()) << "a step pauses";
+  // Played to 1.5 s it stops there, whatever the frames' lengths; at 1 s and after, the needle is
+  // turned to the waypoint's direction.
+  p.play_to(1.5);
+  EXPECT_TRUE(p.playing());
+  for (int i = 0; i < 10; ++i) p.advance(0.3);
+  EXPECT_DOUBLE_EQ(p.time(), 1.5);
+  EXPECT_FALSE(p.playing());
+  ASSERT_TRUE(p.tool_pose(s));
+  EXPECT_TRUE(palpate::needle_axis(Vec3(0, -1, 0), s.orientation).isApprox(Vec3(0, -1, 1).normalized(), 1e-9));
+  // Steps stop at the ends; play at the end starts over.
+  p.step(10);
+  EXPECT_DOUBLE_EQ(p.time(), 2.0);
+  p.step(-10);
+  EXPECT_DOUBLE_EQ(p.time(), 0.0);
+  p.step(10);
+  p.play();
+  EXPECT_DOUBLE_EQ(p.time(), 0.0);
+  EXPECT_TRUE(p.playing());
+  // A hand's device (openhaptics) is not played; a missing trajectory file is named.
+  auto hand = palpate::parse_scene("anatomy: {kind: neck}\ndevice: {kind: openhaptics}\n", "h.yaml");
+  ASSERT_TRUE(hand.ok()) << hand.error().message;
+  EXPECT_FALSE(palpate::view::ScriptPlayer(*hand).has_script());
+  auto missing = palpate::parse_scene("anatomy: {kind: neck}\ndevice: {kind: scripted, trajectory: /nonexistent/path.csv}\n", "m.yaml");
+  if (missing.ok()) {
+    palpate::view::ScriptPlayer m(*missing);
+    EXPECT_FALSE(m.has_script());
+    EXPECT_NE(m.error().find("/nonexistent/path.csv"), std::string::npos) << m.error();
+  }
 }
 
 }  // namespace

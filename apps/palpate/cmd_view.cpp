@@ -6,6 +6,7 @@
 
 #include <fmt/core.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -19,6 +20,7 @@ struct ViewArgs {
   std::string scene;
   bool verbose = false;
   std::string probe;  // "x,y,depth"
+  std::string tilt;   // "dx,dy"
   view::ViewerOptions options;
 };
 
@@ -32,6 +34,17 @@ Result<view::ProbeRequest> parse_probe(const std::string& text) {
   if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.depth) || p.depth < -0.1 || p.depth > 0.1)
     return Error{"--probe '" + text + "': depth must be finite and within [-0.1, 0.1] m"};
   return p;
+}
+
+// "dx,dy" → a drag in pixels; the error names the flag and the expected form.
+Result<std::array<double, 2>> parse_tilt(const std::string& text) {
+  std::array<double, 2> d{};
+  std::istringstream in(text);
+  char c = 0;
+  if (!(in >> d[0] >> c >> d[1]) || c != ',' || !(in >> std::ws).eof() || !std::isfinite(d[0]) ||
+      !std::isfinite(d[1]) || std::abs(d[0]) > 1000 || std::abs(d[1]) > 1000)
+    return Error{"--tilt '" + text + "': expected dx,dy (a drag in window pixels, each within ±1000, e.g. 20,0)"};
+  return d;
 }
 
 int view_command(ViewArgs& args) {
@@ -50,6 +63,14 @@ int view_command(ViewArgs& args) {
       return kExitUsage;
     }
     args.options.probe = *p;
+  }
+  if (!args.tilt.empty()) {
+    auto d = parse_tilt(args.tilt);
+    if (!d) {
+      fmt::print(stderr, "palpate view: {}\n", d.error().message);
+      return kExitUsage;
+    }
+    args.options.tilt = *d;
   }
   if (args.options.exit_after && args.options.frames < 1) args.options.frames = 1;
   prepare_realtime_process();  // the viewer runs a realtime haptic loop beside its GL thread
@@ -87,6 +108,21 @@ void add_view_command(CLI::App& app) {
       ->check(CLI::Range(0.0, 1.0));
   view->add_option("--settle", args->options.settle, "With --probe and --exit: s to hold still (wall and simulated time, no tick zeroed by the safety filter) before the screenshot")
       ->check(CLI::Range(0.0, 60.0));
+  view->add_flag("--play", args->options.play,
+                 "Play the scene's scripted tools (the needle's and the probe's device) from the start; Space pauses");
+  view->add_option("--play-to", args->options.play_to,
+                   "Play the scene's scripted tools to this time (s) and pause there; with --exit, exit once there")
+      ->check(CLI::Range(0.0, 1e6));
+  view->add_option("--keys", args->options.keys,
+                   "Keys pressed at open, one a frame: v turns the probe 90 deg, space plays, n steps 0.1 s, r untilts")
+      ->check([](const std::string& k) {
+        return k.find_first_not_of(" abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789") == std::string::npos
+                   ? std::string()
+                   : std::string("letters, digits and spaces only");
+      });
+  view->add_option("--tilt", args->tilt,
+                   "With --exit: after the press / the script, tilt the needle as a ctrl + left drag of dx,dy pixels "
+                   "(about the skin hole once it is in), then settle");
   // A callback, not "!--no-panels" bound to the bool: CLI11 would print that one's value ({false}) in --help.
   view->add_flag_callback("--no-panels", [args] { args->options.panels = false; }, "Hide the ImGui panels");
   view->add_flag_callback("--screenshot-panels", [args] { args->options.screenshot_panels = true; },

@@ -5,6 +5,7 @@
 #include "tool_tilt.h"
 
 #include <chrono>
+#include <cmath>
 
 namespace palpate::view {
 
@@ -25,7 +26,24 @@ void PoseFeeder::set_target(const Vec3& target) {
   if (!target.allFinite()) return;
   std::lock_guard lock(mutex_);
   target_ = target;
+  pivoting_ = false;
   arrived_ = (target_ - position_).norm() < 1e-9;
+}
+
+void PoseFeeder::set_pivot(const Vec3& pivot, double beyond, const Vec3& tool_axis) {
+  if (!pivot.allFinite() || !std::isfinite(beyond) || !tool_axis.allFinite() || !(tool_axis.norm() > 0)) return;
+  std::lock_guard lock(mutex_);
+  pivoting_ = true;
+  pivot_ = pivot;
+  beyond_ = beyond;
+  pivot_axis_ = tool_axis.normalized();
+  target_ = pivot_ + beyond_ * needle_axis(pivot_axis_, orientation_);
+  arrived_ = false;
+}
+
+bool PoseFeeder::pivoting() const {
+  std::lock_guard lock(mutex_);
+  return pivoting_;
 }
 
 void PoseFeeder::set_max_speed(double metres_per_second) {
@@ -75,16 +93,17 @@ void PoseFeeder::run() {
     DeviceState s;
     {
       std::lock_guard lock(mutex_);
+      orientation_ = turn_towards(orientation_, orientation_target_, max_turn_rate * dt);
+      if (pivoting_) target_ = pivot_ + beyond_ * needle_axis(pivot_axis_, orientation_);
       const Vec3 to_go = target_ - position_;
       const double distance = to_go.norm();
       const double reach = max_speed_ * dt;
       Vec3 step = to_go;
       if (distance > reach) step *= reach / distance;
       position_ += step;
-      arrived_ = distance <= reach;
+      arrived_ = distance <= reach && (!pivoting_ || orientation_.angularDistance(orientation_target_) < 1e-9);
       s.position = position_;
       s.velocity = dt > 0 ? Vec3(step / dt) : Vec3::Zero();
-      orientation_ = turn_towards(orientation_, orientation_target_, max_turn_rate * dt);
       s.orientation = orientation_;
     }
     device_.set_pose(s);

@@ -27,7 +27,13 @@ class PoseFeeder {
   PoseFeeder(const PoseFeeder&) = delete;
   PoseFeeder& operator=(const PoseFeeder&) = delete;
 
-  void set_target(const Vec3& target);      // m; GUI thread
+  void set_target(const Vec3& target);      // m; GUI thread (ends a turn about a pivot)
+  // Turn a needle about a point on its shaft (the skin hole it went in through): from now until the
+  // next set_target, each millisecond's target is pivot + beyond · the needle's direction at that
+  // millisecond's orientation (needle_axis of `tool_axis`), so the shaft passes through the pivot
+  // all through the rate-limited turn and the tip swings the other way from the handle.
+  void set_pivot(const Vec3& pivot, double beyond, const Vec3& tool_axis);
+  bool pivoting() const;
   void set_max_speed(double metres_per_second);
   Vec3 target() const;
   Vec3 position() const;                    // m, the pose last handed to the device
@@ -47,6 +53,9 @@ class PoseFeeder {
   Quat orientation_target_ = Quat::Identity(), orientation_ = Quat::Identity();
   double max_speed_;
   bool arrived_ = true;
+  bool pivoting_ = false;
+  Vec3 pivot_ = Vec3::Zero(), pivot_axis_ = Vec3::UnitZ();
+  double beyond_ = 0;
   std::atomic<bool> quit_{false};
   std::thread thread_;
 };

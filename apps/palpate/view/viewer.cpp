@@ -113,9 +113,107 @@ void Viewer::on_scroll(GLFWwindow* window, double, double dy) {
 void Viewer::on_key(GLFWwindow* window, int key, int, int action, int) {
   auto* v = static_cast<Viewer*>(glfwGetWindowUserPointer(window));
   if (!v || action != GLFW_PRESS || (v->imgui_ready_ && ImGui::GetIO().WantCaptureKeyboard)) return;
-  if (key == GLFW_KEY_F12 || key == GLFW_KEY_S) v->screenshot_key_ = true;
-  if (key == GLFW_KEY_R) v->untilt_key_ = true;
   if (key == GLFW_KEY_ESCAPE) glfwSetWindowShouldClose(window, GLFW_TRUE);
+  else v->handle_key(key);
+}
+
+int Viewer::glfw_key(char c) {
+  if (c == ' ') return GLFW_KEY_SPACE;
+  if (c >= 'a' && c <= 'z') return GLFW_KEY_A + (c - 'a');
+  if (c >= 'A' && c <= 'Z') return GLFW_KEY_A + (c - 'A');
+  if (c >= '0' && c <= '9') return GLFW_KEY_0 + (c - '0');
+  return 0;
+}
+
+void Viewer::handle_key(int key) {
+  switch (key) {
+    case GLFW_KEY_F12:
+    case GLFW_KEY_S:
+      screenshot_key_ = true;
+      break;
+    case GLFW_KEY_R: {  // the needle back to the scene's tool.axis, about the skin hole once in
+      const std::optional<Vec3> hole = scene_.tool.kind == "needle" ? skin_hole() : std::nullopt;
+      feeder_->set_orientation_target(Quat::Identity());
+      if (hole) feeder_->set_pivot(*hole, (feeder_->position() - *hole).norm(), scene_axis());
+      break;
+    }
+    case GLFW_KEY_SPACE:
+      if (player_) player_->toggle();
+      break;
+    case GLFW_KEY_N:
+      if (player_) player_->step(ScriptPlayer::kStep);
+      break;
+    case GLFW_KEY_V:
+      turn_probe();
+      break;
+    default:
+      break;
+  }
+}
+
+std::optional<Vec3> Viewer::skin_hole() const {
+  // From the handle along the shaft to the first drawn tissue surface: the skin it went in through.
+  const Vec3 tip = feeder_->position();
+  const Vec3 axis = needle_axis(scene_axis(), feeder_->orientation());
+  const Vec3 handle = tip - scene_.tool.length * axis;
+  const auto hit = pick_surface(handle, axis);
+  // Through the skin: the surface crossed at least a millimetre before the tip.
+  if (!hit || *hit > scene_.tool.length - 0.001) return std::nullopt;
+  return handle + *hit * axis;
+}
+
+void Viewer::tilt_needle(double dx, double dy) {
+  if (!tilting_) {
+    tilting_ = true;
+    tilt_pivot_ = skin_hole();
+    tilt_beyond_ = tilt_pivot_ ? (feeder_->position() - *tilt_pivot_).norm() : 0;
+    if (player_) player_->pause();
+  }
+  const Quat target = feeder_->orientation_target();
+  const Vec3 handle = -needle_axis(scene_axis(), target);
+  feeder_->set_orientation_target(
+      tilt_by_drag(target, handle, dx, dy, camera_.right(), camera_.up(), kTiltRadiansPerPixel));
+  // Inside the skin the hole stays where it is: the tip swings the other way from the handle.
+  if (tilt_pivot_) feeder_->set_pivot(*tilt_pivot_, tilt_beyond_, scene_axis());
+}
+
+Quat Viewer::probe_turn() const {
+  if (!probe_turned_ || !scene_.probe) return Quat::Identity();
+  return Quat(Eigen::AngleAxisd(0.5 * M_PI, scene_.probe->axis.normalized()));
+}
+
+void Viewer::turn_probe() {
+  if (!probe_feeder_) return;
+  // A quarter turn about the beam, in the probe's own frame (applied after its orientation): the
+  // transverse (out-of-plane) view becomes the longitudinal (in-plane) one, and back.
+  const Quat undo = probe_turn().conjugate();
+  probe_turned_ = !probe_turned_;
+  probe_feeder_->set_orientation_target((probe_feeder_->orientation_target() * undo * probe_turn()).normalized());
+}
+
+bool Viewer::probe_in_plane() const {
+  if (!probe_feeder_ || scene_.tool.kind != "needle") return false;
+  const Quat q = probe_feeder_->orientation();
+  const Vec3 beam = (q * scene_.probe->axis).normalized();
+  const Vec3 lateral = (q * scene_.probe->lateral).normalized();
+  const Vec3 elevation = beam.cross(lateral).normalized();
+  const Vec3 needle = needle_axis(scene_axis(), feeder_->orientation());
+  return std::abs(needle.dot(elevation)) < std::sin(20.0 * M_PI / 180);
+}
+
+void Viewer::play_script(double frame_seconds) {
+  if (!player_) return;
+  player_->advance(frame_seconds);
+  if (!player_->moved()) return;
+  DeviceState s;
+  if (player_->tool_pose(s)) {
+    feeder_->set_target(s.position);
+    feeder_->set_orientation_target(s.orientation);
+  }
+  if (probe_feeder_ && player_->probe_pose(s)) {
+    probe_feeder_->set_target(s.position);
+    probe_feeder_->set_orientation_target((s.orientation * probe_turn()).normalized());
+  }
 }
 
 std::optional<double> Viewer::pick_surface(const Vec3& origin, const Vec3& dir) const {
@@ -145,19 +243,14 @@ void Viewer::frame_input(int width, int height) {
                      glfwGetKey(window_, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
   const bool ctrl = glfwGetKey(window_, GLFW_KEY_LEFT_CONTROL) == GLFW_PRESS ||
                     glfwGetKey(window_, GLFW_KEY_RIGHT_CONTROL) == GLFW_PRESS;
-  if (untilt_key_) {
-    untilt_key_ = false;
-    feeder_->set_orientation_target(Quat::Identity());
-  }
   if (probe_feeder_ && probe_input(x, y, dx, dy, width, height, notches, right, left, shift, ctrl, ui)) return;
+  if (!(left && ctrl)) tilting_ = false;
   if (!ui) {
     if (left && ctrl) {
-      // Tilt the needle about its tip: its handle follows the pointer, 0.5 degree per pixel. The
-      // device (and so the loop's tool.axis) turns towards it at the feeder's bounded rate.
-      const Quat target = feeder_->orientation_target();
-      const Vec3 handle = -needle_axis(scene_axis(), target);
-      feeder_->set_orientation_target(
-          tilt_by_drag(target, handle, dx, dy, camera_.right(), camera_.up(), kTiltRadiansPerPixel));
+      // Tilt the needle: its handle follows the pointer, 0.5 degree per pixel, about the skin hole
+      // once it is in (about its tip before). The device (and so the loop's tool.axis) turns
+      // towards it at the feeder's bounded rate.
+      tilt_needle(dx, dy);
     } else if ((left && shift) || middle) {
       camera_.pan(dx, dy, height);
     } else if (left) {
@@ -170,6 +263,7 @@ void Viewer::frame_input(int width, int height) {
     // Press: touch the surface under the cursor (or, off the tissue, the plane through the
     // camera's target facing it), starting 1 mm past touching.
     pressing_ = true;
+    if (player_) player_->pause();  // the hand takes over from the script
     const auto hit = pick_surface(eye, dir);
     press_distance_ = hit ? *hit : (camera_.target - eye).dot(camera_.forward()) / dir.dot(camera_.forward());
     press_depth_ = -tool_radius() + 0.001;
@@ -258,6 +352,7 @@ bool Viewer::scripted_probe_step(int width, int height) {
 bool Viewer::probe_input(double x, double y, double dx, double dy, int width, int height, double notches,
                          bool right, bool left, bool shift, bool ctrl, bool ui) {
   if (left && shift && ctrl && !ui) {
+    if (player_) player_->pause();  // the hand takes over from the script
     // Tilt the probe about its face: its top follows the pointer, as the needle's handle does.
     const Quat target = probe_feeder_->orientation_target();
     const Vec3 top = -(target * scene_.probe->axis).normalized();
@@ -265,7 +360,10 @@ bool Viewer::probe_input(double x, double y, double dx, double dy, int width, in
         tilt_by_drag(target, top, dx, dy, camera_.right(), camera_.up(), kTiltRadiansPerPixel));
     return true;
   }
-  if (right && shift && !pressing_ && !moving_probe_ && !ui) moving_probe_ = true;
+  if (right && shift && !pressing_ && !moving_probe_ && !ui) {
+    moving_probe_ = true;
+    if (player_) player_->pause();
+  }
   if (!moving_probe_) return false;
   if (!right) {
     moving_probe_ = false;  // let go: the probe stays where it is, resting on the skin
@@ -366,6 +464,13 @@ int Viewer::run() {
     return 1;
   }
   if (options_.probe) stage_ = ProbeStage::pick;
+  player_ = std::make_unique<ScriptPlayer>(scene_);
+  if (!player_->error().empty()) fmt::print(stderr, "palpate view: the script cannot be played: {}\n", player_->error());
+  if (!player_->has_script()) player_.reset();
+  if (player_ && options_.play_to >= 0) player_->play_to(options_.play_to);
+  else if (player_ && options_.play) player_->play();
+  pending_keys_ = options_.keys;
+  if (options_.tilt) tilt_stage_ = TiltStage::settle;
 
   int frames = 0;
   int code = 0;
@@ -387,6 +492,11 @@ int Viewer::run() {
       code = 1;
       break;
     }
+    if (frames > 0 && !pending_keys_.empty()) {  // --keys: one a frame, through the key handler
+      if (const int key = glfw_key(pending_keys_.front())) handle_key(key);
+      pending_keys_.erase(pending_keys_.begin());
+    }
+    play_script(frames > 0 ? frame_dt : 0);  // the script's clock into the feeders' targets
     force_ = device_->force();
     const double t = std::chrono::duration<double>(now - start_).count();
     force_history_.emplace_back(t, static_cast<float>(force_.norm()));
@@ -405,7 +515,23 @@ int Viewer::run() {
     draw_scene(fb_width, fb_height);
 
     // Screenshots show the scene without the panels: taken before ImGui draws over it.
-    const bool probe_done = stage_ == ProbeStage::none || stage_ == ProbeStage::done;
+    // --tilt, once the press (--probe) and the script (--play-to) are done and the tools arrived:
+    // the drag, then the same settle as a press.
+    const bool script_done = !player_ || !player_->playing();
+    const bool tools_arrived = feeder_->arrived() && (!probe_feeder_ || probe_feeder_->arrived());
+    if (tilt_stage_ == TiltStage::settle && (stage_ == ProbeStage::none || stage_ == ProbeStage::done) &&
+        script_done && tools_arrived) {
+      tilt_needle((*options_.tilt)[0], (*options_.tilt)[1]);
+      tilting_ = false;
+      tilt_stage_ = TiltStage::turn;
+    } else if (tilt_stage_ == TiltStage::turn && tools_arrived) {
+      restart_settle();
+      stage_ = ProbeStage::settle;
+      tilt_stage_ = TiltStage::done;
+    }
+    const bool probe_done = (stage_ == ProbeStage::none || stage_ == ProbeStage::done) && script_done &&
+                            (!player_ || tools_arrived) && pending_keys_.empty() &&
+                            (tilt_stage_ == TiltStage::none || tilt_stage_ == TiltStage::done);
     const bool last = options_.exit_after && frames + 1 >= options_.frames && probe_done;
     bool shot_taken = false;
     if (screenshot_key_) {
@@ -480,7 +606,13 @@ void detail::Viewer::report_exit(int frames) {
                m.deepest_depth);
     for (const LoopToolStats& t : st.tools) fmt::print("{}_max_force_N: {:.6f}\n", t.name, t.max_force);
   }
+  if (scene_.tool.kind == "needle") {
+    const Vec3 a = needle_axis(scene_axis(), feeder_->orientation());
+    fmt::print("needle_axis: {:.6f} {:.6f} {:.6f}\n", a.x(), a.y(), a.z());
+  }
+  if (player_) fmt::print("script_time: {:.3f}\n", player_->time());
   if (probe_feeder_) {
+    fmt::print("probe_view: {}\n", probe_in_plane() ? "in-plane" : "out-of-plane");
     const Vec3 p = probe_feeder_->position();
     fmt::print("probe: {:.6f} {:.6f} {:.6f}\n", p.x(), p.y(), p.z());
     fmt::print("probe_force_N: {:.6f}\n", probe_device_->force().norm());

@@ -6,7 +6,9 @@
 #include <palpate/scene_def.h>
 
 #include <filesystem>
+#include <array>
 #include <optional>
+#include <string>
 
 namespace palpate::view {
 
@@ -32,13 +34,25 @@ struct ViewerOptions {
   double timeout = 60;               // s of wall time an exit_after run may take before it fails
   bool panels = true;                // draw the ImGui panels
   bool screenshot_panels = false;    // the exit screenshot with the panels drawn over the scene
+  // The scene's scripted tools (the needle's device and the probe's, scripted or replay) played in
+  // the window: `play` from the start at open; `play_to` ≥ 0 plays to that time (s) and pauses there
+  // (with exit_after, the exit waits for it and for the tools to arrive). Space plays / pauses, N
+  // steps 0.1 s; a press or tilt with the mouse pauses it and the hand takes over.
+  bool play = false;
+  double play_to = -1;
+  // Keys pressed at open, one per frame from the second (the key handler's own path): e.g. "v" turns
+  // the probe 90°, " " plays, "n" steps. Letters, digits and space.
+  std::string keys;
+  // With exit_after: once everything else is done, tilt the needle as a ctrl + left drag of
+  // (dx, dy) pixels would (about the skin hole once it is through the skin), then settle.
+  std::optional<std::array<double, 2>> tilt;
 };
 
 // Open the window and run until it is closed (or, with exit_after, until done). Returns the
 // process exit code: 0 fine, 1 a runtime failure (screenshot, probe missed, timeout), 2 the scene's
 // tissues could not be built, 3 no window or OpenGL 3.3. Messages go to stderr; on exit it prints
 // `frames:`, `force_N:` and `force:` lines to stdout, and the Outcome panel's last figures
-// (`outcome:`, `skin_punctures:`, `passes:`, `deepest_depth_m:`).
+// (`outcome:`, `skin_punctures:`, `passes:`, `deepest_depth_m:`); docs/viewer.md lists them all.
 int run_viewer(const SceneDef& scene, const ViewerOptions& options);
 
 }  // namespace palpate::view

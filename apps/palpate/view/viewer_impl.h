@@ -9,6 +9,7 @@
 #include "gl_draw.h"
 #include "pose_feeder.h"
 #include "screenshot.h"
+#include "script_player.h"
 #include "tool_tilt.h"
 #include "ultrasound_feed.h"
 #include "view_setup.h"
@@ -125,8 +126,21 @@ class Viewer {
   Vec3 press_direction(const Vec3& ray) const;
   static constexpr double kTiltRadiansPerPixel = 0.5 * M_PI / 180;
 
+  // A key's action (on_key's, and --keys'): screenshot, untilt, play / pause, step, turn the probe.
+  void handle_key(int key);
+  // The needle's handle dragged (dx, dy) pixels (ctrl + left drag, --tilt): about the skin hole
+  // when the shaft is through the skin (found at the drag's start), about the tip when not.
+  void tilt_needle(double dx, double dy);
+  std::optional<Vec3> skin_hole() const;  // where the shaft crosses the drawn skin, handle side
+  void turn_probe();                      // V: 90° about its beam (in-plane ↔ out-of-plane)
+  bool probe_in_plane() const;            // the needle's shaft within 20° of the image plane
+  void play_script(double frame_seconds); // the player's clock into the feeders' targets
+  Quat probe_turn() const;                // the quarter turn V put on the probe (about its beam)
+  void draw_script_panel();
+
   static void on_scroll(GLFWwindow* window, double dx, double dy);
   static void on_key(GLFWwindow* window, int key, int scancode, int action, int mods);
+  static int glfw_key(char c);  // a --keys character's GLFW key; 0 if none
 
   SceneDef scene_;
   ViewerOptions options_;
@@ -175,7 +189,13 @@ class Viewer {
   double last_x_ = 0, last_y_ = 0;
   double scroll_ = 0;          // wheel notches since the last frame
   bool screenshot_key_ = false;
-  bool untilt_key_ = false;    // R: the needle back to the scene's tool.axis
+  bool tilting_ = false;       // a ctrl + left drag is on: its pivot found at its start
+  std::optional<Vec3> tilt_pivot_;  // the skin hole it turns about (none: about the tip)
+  double tilt_beyond_ = 0;     // m, the tip's distance past the pivot along the shaft
+  enum class TiltStage { none, settle, turn, done } tilt_stage_ = TiltStage::none;  // --tilt
+  std::unique_ptr<ScriptPlayer> player_;  // the scene's scripted tools, played in the window
+  bool probe_turned_ = false;  // V: the probe a quarter turn about its beam from the script's
+  std::string pending_keys_;   // --keys not yet pressed
   int screenshot_count_ = 0;
 
   // Scripted probe (--probe).

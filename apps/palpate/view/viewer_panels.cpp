@@ -2,6 +2,7 @@
 // (applied by rebuilding the tissue off the GUI thread and handing it over), loop timing and
 // stages, the outcome, the live force plot, and the ultrasound image.
 #include "viewer_impl.h"
+#include <cfloat>
 
 namespace palpate::view::detail {
 namespace {
@@ -75,8 +76,15 @@ void Viewer::draw_ultrasound_panel() {
   if (us_feed_)
     ImGui::Text("%s  %.1f ms per image", us_image_.in_contact ? "on the skin" : "not touching",
                 1e3 * us_feed_->last_render_seconds());
-  ImGui::TextDisabled("shift + right drag: move the probe, wheel: press");
+  // What the image is: its depth and scale (burnt into the image's right edge), which end is which
+  // (the square marks the probe's -lateral end), and the view the probe gives of the needle.
+  if (us_image_.width > 0)
+    ImGui::Text("depth %.0f mm, a tick per 5 mm; square: marked end", 1e3 * us_image_.height * us_image_.pixel_depth);
+  if (scene_.tool.kind == "needle")
+    ImGui::Text("%s", probe_in_plane() ? "in-plane: the whole shaft in view" : "out-of-plane: the shaft as a dot");
+  ImGui::TextDisabled("shift + right drag: move it, wheel: press");
   ImGui::TextDisabled("shift + ctrl + left drag: tilt it");
+  ImGui::TextDisabled("V: turn it 90 deg (in/out of plane)");
   ImGui::End();
 }
 
@@ -108,6 +116,21 @@ void Viewer::finish_rebuild() {
   if (!started) loop_error_ = started.error().message;
 }
 
+void Viewer::draw_script_panel() {
+  // The scene's scripted tools, played in the window (Space, N; a press or tilt with the mouse
+  // pauses the script and the hand takes over from where it left the tools).
+  if (!ImGui::CollapsingHeader("Script", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  ImGui::Text("t %.2f / %.2f s  %s", player_->time(), player_->duration(), player_->playing() ? "playing" : "paused");
+  if (ImGui::Button(player_->playing() ? "Pause" : "Play")) player_->toggle();
+  ImGui::SameLine();
+  if (ImGui::Button("Step 0.1 s")) player_->step(ScriptPlayer::kStep);
+  ImGui::SameLine();
+  if (ImGui::Button("To start")) player_->step(-player_->time());
+  ImGui::SameLine();
+  ImGui::TextDisabled("Space, N");
+  ImGui::ProgressBar(player_->duration() > 0 ? float(player_->time() / player_->duration()) : 0.f, ImVec2(-FLT_MIN, 0), "");
+}
+
 void Viewer::draw_panels() {
   // Wide enough for its longest line (410 px), never taller than the window (it scrolls): at the
   // default 800 x 600 nothing is cut off and it stays left of the ultrasound panel.
@@ -130,9 +153,10 @@ void Viewer::draw_panels() {
     ImGui::Checkbox("force arrow", &show_arrow_);
     ImGui::TextDisabled("left drag: orbit  shift/middle: pan  wheel: zoom");
     ImGui::TextDisabled("right drag: press the tool in, wheel: depth");
-    if (scene_.tool.kind == "needle") ImGui::TextDisabled("ctrl + left drag: tilt the needle  R: untilt");
-    ImGui::TextDisabled("F12 or S: screenshot  Esc: quit");
+    if (scene_.tool.kind == "needle") ImGui::TextDisabled("ctrl + left drag: tilt the needle about the hole");
+    ImGui::TextDisabled("R: untilt  F12 or S: screenshot  Esc: quit");
   }
+  if (player_) draw_script_panel();
   if (ImGui::CollapsingHeader("Force", ImGuiTreeNodeFlags_DefaultOpen)) {
     const Vec3 tip = feeder_->position();
     ImGui::Text("|F| %.3f N  (%.3f, %.3f, %.3f)", force_.norm(), force_.x(), force_.y(), force_.z());
