@@ -335,3 +335,64 @@ TEST(SurfaceGrid, FineResolutionsAgreeWithDirectEvaluation) {
           }
   }
 }
+
+TEST(SurfaceGrid, SmoothedBorderNormalsAgreeAcrossEveryPatchBorderAndStayUnit) {
+  // The dented grid of the test above, drawn with its border normals shared (smooth_border_normals):
+  // at every left/right and top/bottom border the two patches' normals are the same unit vector,
+  // a corner's four the same, and interior samples keep the analytic normal.
+  const int rows = 10, cols = 10, res = 8;
+  std::vector<Vec3f> grid(size_t(rows) * cols);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) grid[size_t(r) * cols + c] = Vec3f(0.001f * c, 0, -0.001f * r);
+  grid[size_t(4) * cols + 4].y() = -0.004f;
+  const auto t = make(rows, cols, SurfaceScheme::bezier, res);
+  SurfaceBuffers out;
+  ASSERT_TRUE(t.tessellate(grid, out));
+  const SurfaceBuffers raw = out;
+  ASSERT_TRUE(t.smooth_border_normals(out.normals));
+  float worst = 1;
+  for (int i = 0; i < t.patch_rows(); ++i)
+    for (int j = 0; j < t.patch_cols(); ++j)
+      for (int s = 0; s <= res; ++s) {
+        if (j + 1 < t.patch_cols())
+          worst = std::min(worst, normal(out, sample(t, i, j, s, res)).dot(normal(out, sample(t, i, j + 1, s, 0))));
+        if (i + 1 < t.patch_rows())
+          worst = std::min(worst, normal(out, sample(t, i, j, res, s)).dot(normal(out, sample(t, i + 1, j, 0, s))));
+      }
+  EXPECT_GT(worst, 0.99999f);
+  for (size_t k = 0; k < out.point_count(); ++k) EXPECT_NEAR(normal(out, k).norm(), 1.0f, 1e-5f) << k;
+  // A corner shared by four patches: one normal.
+  const Vec3f c = normal(out, sample(t, 0, 0, res, res));
+  EXPECT_GT(c.dot(normal(out, sample(t, 1, 1, 0, 0))), 0.99999f);
+  EXPECT_GT(c.dot(normal(out, sample(t, 0, 1, res, 0))), 0.99999f);
+  EXPECT_GT(c.dot(normal(out, sample(t, 1, 0, 0, res))), 0.99999f);
+  // Interior samples untouched; positions untouched.
+  EXPECT_EQ(normal(out, sample(t, 1, 1, 4, 4)), normal(raw, sample(t, 1, 1, 4, 4)));
+  EXPECT_EQ(out.positions, raw.positions);
+  std::vector<float> wrong(3);
+  EXPECT_FALSE(t.smooth_border_normals(wrong));
+}
+
+TEST(SurfaceGrid, AHexagonalLatticesRaggedEndsAreStraightenedAndASquareGridIsLeftAlone) {
+  // Odd rows half a spacing along the rows (the charged-particle layout): column 0 of an odd row
+  // lies 0.5 inward, the last column of an even row 0.5 inward. Straightened, every row's first
+  // point is at x = 0 and its last at x = cols − 0.5; the points between are not moved.
+  const int rows = 7, cols = 6;
+  std::vector<Vec3f> hex(size_t(rows) * cols), square(size_t(rows) * cols);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      hex[size_t(r) * cols + c] = Vec3f(c + 0.5f * (r & 1), 0.2f * r * r * 0.01f, 0.866f * r);
+      square[size_t(r) * cols + c] = Vec3f(c, 0, r);
+    }
+  std::vector<Vec3f> h = hex, s = square;
+  ASSERT_TRUE(palpate::straighten_grid_ends(h, rows, cols));
+  ASSERT_TRUE(palpate::straighten_grid_ends(s, rows, cols));
+  EXPECT_EQ(s, square);
+  for (int r = 0; r < rows; ++r) {
+    EXPECT_NEAR(h[size_t(r) * cols].x(), 0.0f, 1e-5f) << r;
+    EXPECT_NEAR(h[size_t(r) * cols + cols - 1].x(), cols - 0.5f, 1e-5f) << r;
+    for (int c = 1; c + 1 < cols; ++c) EXPECT_EQ(h[size_t(r) * cols + c], hex[size_t(r) * cols + c]) << r << " " << c;
+  }
+  std::vector<Vec3f> few(5);
+  EXPECT_FALSE(palpate::straighten_grid_ends(few, rows, cols));
+}

@@ -151,7 +151,10 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
       auto tess = SurfaceTessellator::build(t.rows_cols[0], t.rows_cols[1], def);
       if (!tess) return tess.error();
       SurfaceBuffers out;
-      if (!tess->tessellate(t.points, out))
+      // Drawn smooth: the lattice's ragged ends straightened, the patches' border normals shared.
+      std::vector<Vec3f> control(t.points);
+      straighten_grid_ends(control, t.rows_cols[0], t.rows_cols[1]);
+      if (!tess->tessellate(control, out) || !tess->smooth_border_normals(out.normals))
         return Error{"frame: tissue " + std::to_string(i) + ": snapshot has " +
                      std::to_string(t.points.size()) + " points, its grid needs " +
                      std::to_string(t.rows_cols[0] * t.rows_cols[1])};

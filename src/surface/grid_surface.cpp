@@ -215,6 +215,56 @@ size_t SurfaceTessellator::point_count() const {
   return size_t(patch_rows_) * size_t(patch_cols_) * r1 * r1;
 }
 
+bool SurfaceTessellator::smooth_border_normals(std::span<float> normals) const noexcept {
+  if (normals.size() != point_count() * 3) return false;
+  const size_t R = size_t(def_.resolution) + 1, per_patch = R * R;
+  const size_t pc = size_t(patch_cols_), pr = size_t(patch_rows_);
+  const auto average = [&](size_t a, size_t b) {
+    float* na = &normals[3 * a];
+    float* nb = &normals[3 * b];
+    float m[3] = {na[0] + nb[0], na[1] + nb[1], na[2] + nb[2]};
+    const float len = std::sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+    if (!(len > 1e-12f)) return;  // opposite normals (a fold): leave both
+    for (int k = 0; k < 3; ++k) na[k] = nb[k] = m[k] / len;
+  };
+  // Across the patches' left/right borders (u = 1 of (i, j) against u = 0 of (i, j+1)), then their
+  // top/bottom ones: a corner shared by four patches ends with the mean of all four.
+  for (size_t i = 0; i < pr; ++i)
+    for (size_t j = 0; j + 1 < pc; ++j) {
+      const size_t left = (i * pc + j) * per_patch, right = (i * pc + j + 1) * per_patch;
+      for (size_t a = 0; a < R; ++a) average(left + a * R + (R - 1), right + a * R);
+    }
+  for (size_t i = 0; i + 1 < pr; ++i)
+    for (size_t j = 0; j < pc; ++j) {
+      const size_t up = (i * pc + j) * per_patch, down = ((i + 1) * pc + j) * per_patch;
+      for (size_t b = 0; b < R; ++b) average(up + (R - 1) * R + b, down + b);
+    }
+  return true;
+}
+
+bool straighten_grid_ends(std::span<Vec3f> control, int rows, int cols) noexcept {
+  if (rows < 3 || cols < 2 || control.size() != size_t(rows) * size_t(cols)) return false;
+  const auto at = [&](int r, int c) -> Vec3f& { return control[size_t(r) * size_t(cols) + size_t(c)]; };
+  // Decide every row from the grid as it came (a moved end must not move its neighbours'), then move.
+  for (int end = 0; end < 2; ++end) {
+    const int c0 = end == 0 ? 0 : cols - 1, c1 = end == 0 ? 1 : cols - 2;
+    float shift = 0;  // the previous row's move, applied one row late (after this row's decision)
+    for (int r = 0; r < rows; ++r) {
+      const Vec3f step = at(r, c0) - at(r, c1);  // outward along the row
+      const float len2 = step.squaredNorm();
+      float d = 0;
+      if (len2 > 0) {
+        const Vec3f others = r == 0 ? at(1, c0) : r == rows - 1 ? at(rows - 2, c0) : 0.5f * (at(r - 1, c0) + at(r + 1, c0));
+        d = (others - at(r, c0)).dot(step) / len2;  // > 0: this end lies inward of the others
+      }
+      if (r > 0 && shift > 0) at(r - 1, c0) += shift * (at(r - 1, c0) - at(r - 1, c1));
+      shift = d > 0.25f && d < 2.0f ? d : 0.0f;
+    }
+    if (shift > 0) at(rows - 1, c0) += shift * (at(rows - 1, c0) - at(rows - 1, c1));
+  }
+  return true;
+}
+
 std::array<int, 4> SurfaceTessellator::patch_rows_of(int patch_i) const { return v_.index.at(patch_i); }
 std::array<int, 4> SurfaceTessellator::patch_cols_of(int patch_j) const { return u_.index.at(patch_j); }
 

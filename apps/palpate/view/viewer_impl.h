@@ -74,6 +74,7 @@ struct TissueView {
   std::optional<PnTessellator> pn;         // triangle snapshots: PN triangles over the mesh
   size_t mesh_triangles = 0;               // triangle count the PN tessellator was built for
   std::vector<float> positions, normals;   // (#P x 3) the drawn surface, m and unit
+  std::vector<Vec3f> control;              // the grid's points with its ends straightened (drawn)
   std::vector<Vec3f> vertex_normals;       // (#points) area-weighted, PN input
   std::vector<std::array<int, 2>> grid_links;  // the control net's segments
   int rows = 0, cols = 0;

@@ -68,7 +68,11 @@ bool update_view(TissueView& view, const TissueSnapshot& s, int resolution) {
       view.positions.resize(view.grid->point_count() * 3);
       view.normals.resize(view.grid->point_count() * 3);
     }
-    return view.grid->tessellate(s.points, view.positions, view.normals);
+    // Drawn smooth: the lattice's ragged ends straightened, the patches' border normals shared.
+    view.control.assign(s.points.begin(), s.points.end());
+    straighten_grid_ends(view.control, view.rows, view.cols);
+    return view.grid->tessellate(view.control, view.positions, view.normals) &&
+           view.grid->smooth_border_normals(view.normals);
   }
   view.grid.reset();
   view.rows = view.cols = 0;

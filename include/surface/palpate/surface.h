@@ -66,6 +66,15 @@ struct SurfacePoint {
 // Output points are grouped by patch: patch (i,j) owns points [k·(r+1)², (k+1)·(r+1)²), with
 // k = i·patch_cols() + j, row-major in (v, u). Border points are repeated in both patches (equal
 // positions), so each patch keeps its own normals: Bézier creases stay visible as in the paper.
+// For display only: a hexagonal lattice's ragged ends made straight. In a grid whose odd rows sit
+// half a spacing along the rows from the even ones (charged-particle patches), the first and last
+// columns zigzag by half a spacing and the surface drawn through them has a sawtooth edge. Each end
+// point that lies inward of its neighbouring rows' ends (by more than a quarter of its row's first
+// step) is moved outward along its row to their line; the others, and a square grid, are left as
+// they are. Works on the deformed grid as it is (no rest state). noexcept, no allocation; false,
+// changing nothing, when control.size() != rows·cols or rows < 3 or cols < 2.
+bool straighten_grid_ends(std::span<Vec3f> control, int rows, int cols) noexcept;
+
 class SurfaceTessellator {
  public:
   // Fails (an Error saying which value and what was expected) for rows or cols < 2, a
@@ -94,6 +103,12 @@ class SurfaceTessellator {
   // Returns false, writing nothing, when a span has the wrong size.
   bool tessellate(std::span<const Vec3f> control, std::span<float> positions,
                   std::span<float> normals) const noexcept;
+
+  // For display only (the viewer, frames): the normals of each border point repeated in two to four
+  // patches averaged and renormalised, so the shading runs on across the patches instead of lighting
+  // each patch as its own facet (the creases above: blocky highlights on a curved organ).
+  // noexcept, no allocation; false, changing nothing, when `normals` has the wrong size.
+  bool smooth_border_normals(std::span<float> normals) const noexcept;
 
   // The surface at patch (i,j), parameters u, v ∈ [0,1] (u along columns), at any parameter
   // (from the basis polynomials, not the sample tables): for tests and picking, not per frame.
