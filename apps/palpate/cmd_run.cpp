@@ -1,6 +1,7 @@
 // cmd_run.cpp — `palpate run SCENE [--out DIR] [--realtime] [--device KIND] [--coupling C]`: a run
 // with the scene's device, headless (as fast as it goes) or paced by the wall clock at 1 kHz.
 #include <palpate/palpate.h>
+#include <palpate/report.h>
 
 #include "commands.h"
 
@@ -70,6 +71,7 @@ struct RunArgs {
   std::vector<std::string> exports;  // vtu, gltf
   double export_every = 0.1;         // s
   FrameOptions frame;
+  bool no_report = false;            // a needle scene writes report.html unless told not to
 };
 
 int run_command(const RunArgs& a) {
@@ -133,6 +135,18 @@ int run_command(const RunArgs& a) {
     return 1;
   }
   const RunSummary& s = *result;
+  // The attempt as the educator reads it (docs/cvc.md, "The report"): a needle scene's report.html.
+  std::filesystem::path report;
+  std::string report_error;
+  if (!a.no_report && scene->tool.kind == "needle") {
+    auto attempt = run_report_attempt(*scene, s, opt);
+    if (!attempt) {
+      report_error = attempt.error().message;
+    } else {
+      report = (opt.out.empty() ? scene->output : opt.out) / "report.html";
+      if (Status st = write_report_html({&*attempt, 1}, report); !st) report_error = st.error().message, report.clear();
+    }
+  }
   if (!a.quiet) {
     fmt::print("scene      {}\n", scene->name);
     fmt::print("ticks      {} at {} ms\n", s.ticks, s.dt * 1e3);
@@ -184,6 +198,7 @@ int run_command(const RunArgs& a) {
                  m.arterial_flashback_time);
     fmt::print("outputs    {}\n           {}\n", s.csv.string(), s.summary_json.string());
     for (const auto& p : s.plots) fmt::print("           {}\n", p.string());
+    if (!report.empty()) fmt::print("           {}\n", report.string());
     if (s.frames.size() <= 10) {
       for (const RunFrame& f : s.frames) fmt::print("           {}  (t = {:.3f} s)\n", f.file.string(), f.time);
     } else {
@@ -213,6 +228,7 @@ int run_command(const RunArgs& a) {
     }
   }
   if (!s.plot_error.empty()) fmt::print(stderr, "palpate run: no plots: {}\n", s.plot_error);
+  if (!report_error.empty()) fmt::print(stderr, "palpate run: no report.html: {}\n", report_error);
   // A tissue whose step failed on every tick (a predictor that resets it each step) sent no force
   // at all: say so, not only count it.
   if (s.ticks > 0 && s.safety.step_failed >= s.ticks) {
@@ -242,7 +258,7 @@ int run_command(const RunArgs& a) {
   }
   // The plots are among a run's outputs: a run that could not write them did not do its job
   // (the reason was printed above; run.csv and summary.json are whole).
-  if (!s.plot_error.empty()) return 1;
+  if (!s.plot_error.empty() || !report_error.empty()) return 1;
   return 0;
 }
 
@@ -304,6 +320,9 @@ void add_run_command(CLI::App& app) {
           },
           "SECONDS > 0"))
       ->needs(ex);
+  run->add_flag("--no-report", args->no_report,
+                "A needle scene writes report.html (outcome, metrics against published figures, force plot, "
+                "the ultrasound image at the flashback, the frames): not this time");
   run->add_flag("--frame-particles", args->frame.particles, "Frames: draw the particles / masses");
   run->add_flag("--frame-links", args->frame.links, "Frames: draw neighbour links / springs");
   run->add_option("--frame-resolution", args->frame.resolution,

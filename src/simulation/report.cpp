@@ -1,0 +1,358 @@
+// report.cpp — report.html (palpate/report.h): the page, its metrics table, its SVG force plot, and
+// the attempt a finished run gives.
+#include <palpate/report.h>
+
+#include <palpate/run.h>
+
+#include "io/csv_rows.h"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <sstream>
+
+namespace palpate {
+
+std::string html_escape(std::string_view text) {
+  std::string out;
+  out.reserve(text.size() + text.size() / 8);
+  for (const char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&#39;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string base64(std::string_view bytes) {
+  static constexpr char kDigits[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const unsigned v = (unsigned(std::uint8_t(bytes[i])) << 16) | (unsigned(std::uint8_t(bytes[i + 1])) << 8) |
+                       unsigned(std::uint8_t(bytes[i + 2]));
+    out += kDigits[(v >> 18) & 63], out += kDigits[(v >> 12) & 63], out += kDigits[(v >> 6) & 63], out += kDigits[v & 63];
+  }
+  if (i + 1 == bytes.size()) {
+    const unsigned v = unsigned(std::uint8_t(bytes[i])) << 16;
+    out += kDigits[(v >> 18) & 63], out += kDigits[(v >> 12) & 63], out += "==";
+  } else if (i + 2 == bytes.size()) {
+    const unsigned v = (unsigned(std::uint8_t(bytes[i])) << 16) | (unsigned(std::uint8_t(bytes[i + 1])) << 8);
+    out += kDigits[(v >> 18) & 63], out += kDigits[(v >> 12) & 63], out += kDigits[(v >> 6) & 63], out += '=';
+  }
+  return out;
+}
+
+namespace {
+
+std::string seconds(double s) { return s >= 0 ? fmt::format("{:.1f} s", s) : "—"; }
+
+// How many punctures of tissues whose name is one of `names`' (events carry the tissue's name).
+int punctures_of(const ReportAttempt& a, const std::vector<std::string>& names) {
+  return int(std::count_if(a.events.begin(), a.events.end(), [&](const RunEvent& e) {
+    return e.kind == "puncture" && std::find(names.begin(), names.end(), e.tissue) != names.end();
+  }));
+}
+
+}  // namespace
+
+// The figures are C1's of ../shared/data/measurements/cvc_ultrasound_and_metrics.md, each quoted
+// with its source; docs/cvc.md ("The report") lists them with how sure each one is.
+std::vector<ReportCriterion> report_criteria(const ReportAttempt& a) {
+  const TrainingMetrics& m = a.metrics;
+  std::vector<ReportCriterion> c;
+  c.push_back({"outcome", outcome_name(m.outcome), "the tip in the IJV's lumen: 76 % of physicians without needle guidance, 97 % with",
+               "eZono phantom study, Anesthesiology 123(3):535, 2015", m.outcome == Outcome::vein ? 1 : -1});
+  c.push_back({"skin punctures (insertion attempts)", std::to_string(m.skin_punctures),
+               "1 (a mean of 1.13 attempts, cross-sectional view; 1.30 longitudinal)",
+               "Griffiths et al., Crit Ultrasound J 9:9, 2017", m.skin_punctures == 1 ? 1 : -1});
+  c.push_back({"needle passes", std::to_string(m.passes), "1: fewer passes after mastery training (p < .0005)",
+               "Barsuk et al., Crit Care Med 37(10):2697, 2009", m.passes <= 1 ? 1 : -1});
+  c.push_back({"redirections", std::to_string(m.redirections), "0: the long-axis view cut them (RR 0.4 at the IJ)",
+               "Vogel et al., Crit Care Med 2015 (PMC4436655)", m.redirections == 0 ? 1 : -1});
+  const bool back_wall = m.outcome == Outcome::posterior_wall || punctures_of(a, {"ijv", "vein"}) >= 2;
+  c.push_back({"posterior wall punctured", back_wall ? "yes" : "no",
+               "no: 49 % of physicians without guidance, 13 % with; 64 % of residents (short axis)",
+               "eZono 2015; Blaivas & Adhikari, Crit Care Med 37(8):2345, 2009", back_wall ? -1 : 1});
+  const bool artery = m.outcome == Outcome::artery || m.arterial_flashback;
+  c.push_back({"carotid punctured", artery ? fmt::format("yes{}", m.arterial_flashback ? fmt::format(" (arterial flashback at {:.1f} s)", m.arterial_flashback_time) : "") : "no",
+               "no: 21 % of physicians without guidance, 2 % with; 5.0–9.4 % of real IJ CVCs",
+               "eZono 2015; Barsuk et al., J Hosp Med 2009 (C2)", artery ? -1 : 1});
+  const bool timed = m.flashback && m.time_to_flashback >= 0;
+  c.push_back({"skin puncture to flashback", timed ? seconds(m.time_to_flashback) : "no flashback",
+               "≤ 45.1 s (phantom means: 45.1 s cross-sectional, 52.8 s longitudinal)",
+               "Griffiths et al. 2017", timed ? (m.time_to_flashback <= 45.1 ? 1 : -1) : -1});
+  c.push_back({"deepest tip below the skin", fmt::format("{:.1f} mm", 1e3 * m.deepest_depth), "", "", 0});
+  c.push_back({"peak force", fmt::format("{:.2f} N", m.peak_force), fmt::format("the device's limit: {:.1f} N", a.max_force), "", 0});
+  return c;
+}
+
+namespace {
+
+const char* outcome_colour(Outcome o) {
+  switch (o) {
+    case Outcome::vein: return "#2e7d32";
+    case Outcome::artery: return "#c62828";
+    case Outcome::posterior_wall: return "#ef6c00";
+    default: return "#546e7a";
+  }
+}
+
+const char* event_colour(const std::string& kind) {
+  if (kind == "puncture") return "#ef6c00";
+  if (kind == "flashback") return "#2e7d32";
+  if (kind == "arterial_flashback") return "#c62828";
+  if (kind == "redirect") return "#6a1b9a";
+  return "#78909c";
+}
+
+// The force over time: |F| (blue) and the probe's (grey) against the device's limit, the events as
+// vertical lines labelled from the bottom up.
+std::string force_svg(const ReportAttempt& a) {
+  constexpr double W = 900, H = 300, L = 50, R = 10, T = 10, B = 30;
+  const double t1 = a.duration > 0 ? a.duration : (a.force.empty() ? 1.0 : a.force.back()[0]);
+  double top = std::max(0.5, 0.0);
+  for (const auto& p : a.force) top = std::max(top, p[1]);
+  for (const auto& p : a.probe_force) top = std::max(top, p[1]);
+  top = std::ceil(top * 1.1 * 2) / 2;
+  const auto X = [&](double t) { return L + (W - L - R) * std::clamp(t / t1, 0.0, 1.0); };
+  const auto Y = [&](double f) { return T + (H - T - B) * (1 - std::clamp(f / top, 0.0, 1.0)); };
+  std::string s = fmt::format(
+      "<svg class=\"plot\" width=\"{0}\" height=\"{1}\" viewBox=\"0 0 {0} {1}\" "
+      "role=\"img\" aria-label=\"force over time\">\n<rect x=\"{2}\" y=\"{3}\" width=\"{4}\" height=\"{5}\" fill=\"#fafafa\" stroke=\"#999\"/>\n",
+      W, H, L, T, W - L - R, H - T - B);
+  for (int k = 0; k <= 4; ++k) {  // the force axis
+    const double f = top * k / 4;
+    s += fmt::format("<line x1=\"{0}\" x2=\"{1}\" y1=\"{2:.1f}\" y2=\"{2:.1f}\" stroke=\"#e0e0e0\"/><text x=\"{3}\" y=\"{4:.1f}\" "
+                     "font-size=\"11\" text-anchor=\"end\">{5:.2g} N</text>\n",
+                     L, W - R, Y(f), L - 4, Y(f) + 4, f);
+  }
+  for (int k = 0; k <= 8; ++k) {  // the time axis
+    const double t = t1 * k / 8;
+    s += fmt::format("<text x=\"{:.1f}\" y=\"{}\" font-size=\"11\" text-anchor=\"middle\">{:.1f} s</text>\n", X(t), H - 10, t);
+  }
+  // The events: a line each; labels stacked up from the bottom, so none covers a peak.
+  int stack = 0;
+  double last_x = -1e9;
+  for (const RunEvent& e : a.events) {
+    if (e.kind == "exit") continue;
+    const double x = X(e.time);
+    stack = x - last_x < 60 ? stack + 1 : 0;
+    last_x = x;
+    s += fmt::format("<line class=\"event\" x1=\"{0:.1f}\" x2=\"{0:.1f}\" y1=\"{1}\" y2=\"{2}\" stroke=\"{3}\" stroke-dasharray=\"4 3\"/>"
+                     "<text x=\"{4:.1f}\" y=\"{5:.1f}\" font-size=\"10\" fill=\"{3}\">{6} {7}</text>\n",
+                     x, T, H - B, event_colour(e.kind), x + 3, H - B - 6 - 12.0 * stack, html_escape(e.kind), html_escape(e.tissue));
+  }
+  const auto polyline = [&](const std::vector<std::array<double, 2>>& pts, const char* colour, const char* cls) {
+    if (pts.empty()) return;
+    s += fmt::format("<polyline class=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"2\" points=\"", cls, colour);
+    for (const auto& p : pts) s += fmt::format("{:.1f},{:.1f} ", X(p[0]), Y(p[1]));
+    s += "\"/>\n";
+  };
+  polyline(a.probe_force, "#9e9e9e", "probe-force");
+  polyline(a.force, "#1f5fbf", "force");
+  s += fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"12\" fill=\"#1f5fbf\">|F| needle</text>", L + 8, T + 16);
+  if (!a.probe_force.empty())
+    s += fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"12\" fill=\"#757575\">|F| probe</text>", L + 90, T + 16);
+  s += "</svg>\n";
+  return s;
+}
+
+std::string image_html(const ReportImage& img, const char* cls, int width) {
+  return fmt::format("<figure class=\"{}\"><img alt=\"{}\" width=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>\n",
+                     cls, html_escape(img.caption), width, base64(img.png), html_escape(img.caption));
+}
+
+std::string table_cell(const std::string& text) { return "<td>" + html_escape(text) + "</td>"; }
+
+}  // namespace
+
+std::string report_html(std::span<const ReportAttempt> attempts) {
+  std::string h;
+  h += "<!doctype html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+       // Nothing from anywhere else: no script, no font, no image but the page's own data: URIs.
+       "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; img-src data:; style-src 'unsafe-inline'\">\n";
+  const std::string title = attempts.empty() ? std::string("no attempt") : attempts.front().scene;
+  h += "<title>palpate report: " + html_escape(title) + "</title>\n";
+  h += "<style>\nbody{font-family:sans-serif;margin:16px;color:#212121;background:#fff;max-width:960px}\n"
+       "table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #bdbdbd;padding:3px 6px;font-size:13px;text-align:left}\n"
+       "th{background:#eceff1}.met{background:#c8e6c9}.notmet{background:#ffcdd2}\n"
+       ".outcome{color:#fff;padding:10px 14px;font-size:22px;font-weight:bold;margin:8px 0}\n"
+       "figure{display:inline-block;margin:4px}figcaption{font-size:12px;color:#616161}\n"
+       ".note{color:#795548;font-size:13px}\n</style>\n</head>\n<body>\n";
+  h += "<h1>palpate: " + html_escape(title) + "</h1>\n";
+  h += fmt::format("<p>{} attempt{}. Metrics are judged against published figures ({}); "
+                   "docs/cvc.md says how sure each one is.</p>\n",
+                   attempts.size(), attempts.size() == 1 ? "" : "s",
+                   "cvc_ultrasound_and_metrics.md, C1");
+  // The attempts side by side.
+  h += "<h2>Attempts</h2>\n<table class=\"attempts\"><tr><th>attempt</th><th>scene</th><th>outcome</th><th>skin punctures</th>"
+       "<th>passes</th><th>redirections</th><th>to flashback</th><th>carotid</th><th>deepest</th><th>peak force</th><th>criteria met</th></tr>\n";
+  for (const ReportAttempt& a : attempts) {
+    const auto crit = report_criteria(a);
+    const long met = std::count_if(crit.begin(), crit.end(), [](const ReportCriterion& c) { return c.verdict > 0; });
+    const long judged = std::count_if(crit.begin(), crit.end(), [](const ReportCriterion& c) { return c.verdict != 0; });
+    const TrainingMetrics& m = a.metrics;
+    h += "<tr>" + table_cell(a.label) + table_cell(a.scene) +
+         fmt::format("<td style=\"color:{}\"><b>{}</b></td>", outcome_colour(m.outcome), outcome_name(m.outcome)) +
+         table_cell(std::to_string(m.skin_punctures)) + table_cell(std::to_string(m.passes)) +
+         table_cell(std::to_string(m.redirections)) +
+         table_cell(m.flashback && m.time_to_flashback >= 0 ? seconds(m.time_to_flashback) : "—") +
+         table_cell(m.arterial_flashback || m.outcome == Outcome::artery ? "punctured" : "no") +
+         table_cell(fmt::format("{:.1f} mm", 1e3 * m.deepest_depth)) + table_cell(fmt::format("{:.2f} N", m.peak_force)) +
+         table_cell(fmt::format("{} of {}", met, judged)) + "</tr>\n";
+  }
+  h += "</table>\n";
+  for (size_t i = 0; i < attempts.size(); ++i) {
+    const ReportAttempt& a = attempts[i];
+    h += fmt::format("<section class=\"attempt\" id=\"attempt-{}\">\n", i + 1);
+    h += "<h2>" + html_escape(a.label) + "</h2>\n";
+    h += "<p>scene <b>" + html_escape(a.scene) + "</b>" +
+         (a.scene_file.empty() ? std::string() : " (" + html_escape(a.scene_file) + ")") +
+         fmt::format(", {:.1f} s</p>\n", a.duration);
+    h += fmt::format("<div class=\"outcome\" style=\"background:{}\">outcome: {}</div>\n", outcome_colour(a.metrics.outcome),
+                     outcome_name(a.metrics.outcome));
+    h += "<table class=\"criteria\"><tr><th>metric</th><th>this attempt</th><th>judged against</th><th>source</th></tr>\n";
+    for (const ReportCriterion& c : report_criteria(a))
+      h += std::string("<tr class=\"") + (c.verdict > 0 ? "met" : c.verdict < 0 ? "notmet" : "info") + "\">" +
+           table_cell(c.metric) + table_cell(c.value) + table_cell(c.reference) + table_cell(c.source) + "</tr>\n";
+    h += "</table>\n<h3>Force</h3>\n" + force_svg(a);
+    if (!a.events.empty()) {
+      h += "<table class=\"events\"><tr><th>t (s)</th><th>event</th><th>tissue</th><th>depth (mm)</th><th>force (N)</th></tr>\n";
+      for (const RunEvent& e : a.events)
+        h += "<tr>" + table_cell(fmt::format("{:.3f}", e.time)) + table_cell(e.kind) + table_cell(e.tissue) +
+             table_cell(fmt::format("{:.2f}", 1e3 * e.depth)) + table_cell(fmt::format("{:.3f}", e.force)) + "</tr>\n";
+      h += "</table>\n";
+    }
+    if (a.ultrasound) h += "<h3>Ultrasound at the flashback</h3>\n" + image_html(*a.ultrasound, "ultrasound", 384);
+    if (!a.frames.empty()) {
+      h += "<h3>3-D frames</h3>\n";
+      for (const ReportImage& f : a.frames) h += image_html(f, "frame", 300);
+    }
+    for (const std::string& n : a.notes) h += "<p class=\"note\">" + html_escape(n) + "</p>\n";
+    h += "</section>\n";
+  }
+  h += "<p class=\"note\">Written by palpate " + html_escape(std::string(version())) + ".</p>\n</body>\n</html>\n";
+  return h;
+}
+
+Status write_report_html(std::span<const ReportAttempt> attempts, const std::filesystem::path& file) {
+  return write_file_atomic(file, report_html(attempts), /*create_directories=*/true);
+}
+
+namespace {
+
+Result<std::string> read_bytes(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return Error{file.string() + ": cannot be read for the report"};
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// Thin a trace to at most `most` points: each bucket's first point, and its extremes.
+std::vector<std::array<double, 2>> thin(const std::vector<std::array<double, 2>>& pts, size_t most) {
+  if (pts.size() <= most) return pts;
+  std::vector<std::array<double, 2>> out;
+  const size_t buckets = most / 2;
+  for (size_t b = 0; b < buckets; ++b) {
+    const size_t i0 = b * pts.size() / buckets, i1 = (b + 1) * pts.size() / buckets;
+    if (i0 >= i1) continue;
+    auto [lo, hi] = std::minmax_element(pts.begin() + std::ptrdiff_t(i0), pts.begin() + std::ptrdiff_t(i1),
+                                        [](const auto& a, const auto& b) { return a[1] < b[1]; });
+    if (lo - pts.begin() < hi - pts.begin()) out.push_back(*lo), out.push_back(*hi);
+    else out.push_back(*hi), out.push_back(*lo);
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<ReportAttempt> run_report_attempt(const SceneDef& scene, const RunSummary& summary, const RunOptions& options) {
+  namespace fs = std::filesystem;
+  ReportAttempt a;
+  const fs::path out = options.out.empty() ? scene.output : options.out;
+  a.label = out.filename().empty() ? out.parent_path().filename().string() : out.filename().string();
+  a.scene = scene.name;
+  a.scene_file = scene.file.string();
+  a.duration = double(summary.ticks) * summary.dt;
+  a.metrics = summary.metrics;
+  a.events = summary.events;
+  a.max_force = scene.device.max_force;
+  // The traces from run.csv: t, force_N and, with a probe, probe_force_N.
+  auto rows = io::CsvRows::open(summary.csv, "run.csv");
+  if (!rows) return rows.error();
+  std::vector<std::string_view> f;
+  if (!rows->next(f)) return Error{summary.csv.string() + ": empty; expected run.csv's header"};
+  int ct = -1, cf = -1, cp = -1;
+  for (size_t i = 0; i < f.size(); ++i) {
+    if (f[i] == "t") ct = int(i);
+    if (f[i] == "force_N") cf = int(i);
+    if (f[i] == "probe_force_N") cp = int(i);
+  }
+  if (ct < 0 || cf < 0) return Error{summary.csv.string() + ":1: expected the columns t and force_N"};
+  std::vector<std::array<double, 2>> force, probe;
+  while (rows->next(f)) {
+    double t = 0, v = 0, p = 0;
+    if (size_t(std::max({ct, cf, cp})) >= f.size() || !io::csv_number(f[size_t(ct)], t) || !io::csv_number(f[size_t(cf)], v))
+      return Error{rows->where() + "expected numbers in the columns t and force_N"};
+    force.push_back({t, v});
+    if (cp >= 0 && io::csv_number(f[size_t(cp)], p)) probe.push_back({t, p});
+  }
+  a.force = thin(force, 4000);
+  a.probe_force = thin(probe, 4000);
+  for (const RunFrame& fr : summary.frames) {
+    auto png = read_bytes(fr.file);
+    if (!png) return png.error();
+    a.frames.push_back({fr.time, std::move(*png), fmt::format("t = {:.2f} s", fr.time)});
+  }
+  if (summary.frames.empty()) a.notes.push_back("No 3-D frames: run with --frames N (or --frame-times) to have them here.");
+  // The ultrasound image at the flashback (the arterial one when that came first or alone).
+  const TrainingMetrics& m = summary.metrics;
+  const bool any = m.flashback || m.arterial_flashback;
+  if (scene.probe && any) {
+    const bool arterial = m.arterial_flashback && (!m.flashback || m.arterial_flashback_time < m.flashback_time);
+    const double t = arterial ? m.arterial_flashback_time : m.flashback_time;
+    if (summary.interrupted || options.realtime || scene.device.kind == "openhaptics" || scene.probe->device.kind == "openhaptics") {
+      a.notes.push_back("No ultrasound image at the flashback: only a headless run of scripted or replayed tools is run again to draw it.");
+    } else {
+      // Headless runs are deterministic: the same scene, run again to the flashback's tick, is in
+      // the same state there. Into a folder of its own beside the run's outputs, removed after.
+      SceneDef again = scene;
+      again.duration = t + 0.5 * scene.dt;
+      RunOptions ro;
+      ro.out = out / ".report-flashback";
+      ro.cache = options.cache;
+      ro.plots = false;
+      ro.physics_dt = options.physics_dt;
+      ro.ultrasound_times = {t};
+      auto rerun = run_scene(again, ro);
+      std::error_code ec;
+      if (!rerun) {
+        a.notes.push_back("No ultrasound image at the flashback: " + rerun.error().message);
+      } else if (rerun->ultrasound.empty()) {
+        a.notes.push_back("No ultrasound image at the flashback: " + rerun->ultrasound_error);
+      } else {
+        auto png = read_bytes(rerun->ultrasound.front().file);
+        if (png)
+          a.ultrasound = ReportImage{rerun->ultrasound.front().time, std::move(*png),
+                                     fmt::format("{} at t = {:.3f} s: the needle's tip as the probe shows it",
+                                                 arterial ? "arterial flashback" : "flashback", rerun->ultrasound.front().time)};
+      }
+      fs::remove_all(ro.out, ec);
+    }
+  } else if (scene.probe) {
+    a.notes.push_back("No ultrasound image at the flashback: there was no flashback.");
+  }
+  return a;
+}
+
+}  // namespace palpate
