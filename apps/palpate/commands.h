@@ -15,6 +15,7 @@ void add_info_command(CLI::App& app);
 void add_precompute_command(CLI::App& app);
 void add_view_command(CLI::App& app);
 void add_doctor_command(CLI::App& app);
+void add_report_command(CLI::App& app);
 // True when standard error is a terminal: progress is shown only then.
 bool stderr_is_terminal();
 // --quiet,-q (errors only) and --verbose,-v (also what was loaded from where, and each stage's

@@ -23,6 +23,7 @@ int run_main(int argc, char** argv) {
   palpate::cli::add_precompute_command(app);
   palpate::cli::add_view_command(app);
   palpate::cli::add_doctor_command(app);
+  palpate::cli::add_report_command(app);
   CLI::App* ref = app.add_subcommand(
       "reference", "Print the reference of every scene-file key (type, unit, default, range)");
   ref->callback([] { fmt::print("{}", palpate::scene_reference_markdown()); });

@@ -7,6 +7,7 @@
 #include "io/csv_rows.h"
 
 #include <fmt/core.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -276,29 +277,25 @@ std::vector<std::array<double, 2>> thin(const std::vector<std::array<double, 2>>
 
 }  // namespace
 
-Result<ReportAttempt> run_report_attempt(const SceneDef& scene, const RunSummary& summary, const RunOptions& options) {
-  namespace fs = std::filesystem;
-  ReportAttempt a;
-  const fs::path out = options.out.empty() ? scene.output : options.out;
-  a.label = out.filename().empty() ? out.parent_path().filename().string() : out.filename().string();
-  a.scene = scene.name;
-  a.scene_file = scene.file.string();
-  a.duration = double(summary.ticks) * summary.dt;
-  a.metrics = summary.metrics;
-  a.events = summary.events;
-  a.max_force = scene.device.max_force;
-  // The traces from run.csv: t, force_N and, with a probe, probe_force_N.
-  auto rows = io::CsvRows::open(summary.csv, "run.csv");
+namespace {
+
+std::string folder_label(const std::filesystem::path& dir) {
+  return dir.filename().empty() ? dir.parent_path().filename().string() : dir.filename().string();
+}
+
+// The traces from run.csv: t, force_N and, with a probe, probe_force_N.
+Status read_force_traces(const std::filesystem::path& csv, ReportAttempt& a) {
+  auto rows = io::CsvRows::open(csv, "run.csv");
   if (!rows) return rows.error();
   std::vector<std::string_view> f;
-  if (!rows->next(f)) return Error{summary.csv.string() + ": empty; expected run.csv's header"};
+  if (!rows->next(f)) return Error{csv.string() + ": empty; expected run.csv's header"};
   int ct = -1, cf = -1, cp = -1;
   for (size_t i = 0; i < f.size(); ++i) {
     if (f[i] == "t") ct = int(i);
     if (f[i] == "force_N") cf = int(i);
     if (f[i] == "probe_force_N") cp = int(i);
   }
-  if (ct < 0 || cf < 0) return Error{summary.csv.string() + ":1: expected the columns t and force_N"};
+  if (ct < 0 || cf < 0) return Error{csv.string() + ":1: expected the columns t and force_N"};
   std::vector<std::array<double, 2>> force, probe;
   while (rows->next(f)) {
     double t = 0, v = 0, p = 0;
@@ -309,6 +306,34 @@ Result<ReportAttempt> run_report_attempt(const SceneDef& scene, const RunSummary
   }
   a.force = thin(force, 4000);
   a.probe_force = thin(probe, 4000);
+  return {};
+}
+
+constexpr const char* kFlashbackImage = "flashback_us.png";
+
+}  // namespace
+
+bool outcome_from_name(std::string_view name, Outcome& out) noexcept {
+  for (Outcome o : {Outcome::none, Outcome::vein, Outcome::posterior_wall, Outcome::artery, Outcome::outside_model})
+    if (name == outcome_name(o)) {
+      out = o;
+      return true;
+    }
+  return false;
+}
+
+Result<ReportAttempt> run_report_attempt(const SceneDef& scene, const RunSummary& summary, const RunOptions& options) {
+  namespace fs = std::filesystem;
+  ReportAttempt a;
+  const fs::path out = options.out.empty() ? scene.output : options.out;
+  a.label = folder_label(out);
+  a.scene = scene.name;
+  a.scene_file = scene.file.string();
+  a.duration = double(summary.ticks) * summary.dt;
+  a.metrics = summary.metrics;
+  a.events = summary.events;
+  a.max_force = scene.device.max_force;
+  if (Status s = read_force_traces(summary.csv, a); !s) return s.error();
   for (const RunFrame& fr : summary.frames) {
     auto png = read_bytes(fr.file);
     if (!png) return png.error();
@@ -342,6 +367,7 @@ Result<ReportAttempt> run_report_attempt(const SceneDef& scene, const RunSummary
         a.notes.push_back("No ultrasound image at the flashback: " + rerun->ultrasound_error);
       } else {
         auto png = read_bytes(rerun->ultrasound.front().file);
+        if (png) fs::copy_file(rerun->ultrasound.front().file, out / kFlashbackImage, fs::copy_options::overwrite_existing, ec);
         if (png)
           a.ultrasound = ReportImage{rerun->ultrasound.front().time, std::move(*png),
                                      fmt::format("{} at t = {:.3f} s: the needle's tip as the probe shows it",
@@ -352,6 +378,76 @@ Result<ReportAttempt> run_report_attempt(const SceneDef& scene, const RunSummary
   } else if (scene.probe) {
     a.notes.push_back("No ultrasound image at the flashback: there was no flashback.");
   }
+  if (!a.ultrasound) {
+    std::error_code ec;
+    fs::remove(out / kFlashbackImage, ec);  // not an earlier run's
+  }
+  return a;
+}
+
+Result<ReportAttempt> read_report_attempt(const std::filesystem::path& dir) {
+  namespace fs = std::filesystem;
+  const fs::path file = dir / "summary.json";
+  std::ifstream in(file);
+  if (!in) return Error{file.string() + ": cannot be read; expected a run's output folder (palpate run writes summary.json)"};
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    return Error{file.string() + ": not JSON: " + e.what()};
+  }
+  ReportAttempt a;
+  a.label = folder_label(dir);
+  try {
+    a.scene = j.at("scene").get<std::string>();
+    a.scene_file = j.value("scene_file", std::string());
+    a.duration = j.at("duration_s").get<double>();
+    const std::string outcome = j.at("outcome").get<std::string>();
+    if (!outcome_from_name(outcome, a.metrics.outcome))
+      return Error{file.string() + ": outcome: '" + outcome + "' is not one of none, vein, posterior_wall, artery, outside_model"};
+    const auto& m = j.at("metrics");
+    TrainingMetrics& t = a.metrics;
+    t.skin_punctures = m.at("skin_punctures").get<int>();
+    t.passes = m.at("passes").get<int>();
+    t.redirections = m.at("redirections").get<int>();
+    t.deepest_depth = m.at("deepest_depth_m").get<double>();
+    t.peak_force = m.at("peak_force_N").get<double>();
+    const auto time = [&](const char* key, bool& set, double& value) {
+      set = m.contains(key) && m.at(key).is_number();
+      if (set) value = m.at(key).get<double>();
+    };
+    bool first = false;
+    time("flashback_s", t.flashback, t.flashback_time);
+    time("arterial_flashback_s", t.arterial_flashback, t.arterial_flashback_time);
+    time("first_skin_puncture_s", first, t.first_skin_puncture);
+    bool timed = false;
+    time("time_to_flashback_s", timed, t.time_to_flashback);
+    if (!timed) t.time_to_flashback = -1;
+    if (!first) t.first_skin_puncture = -1;
+    for (const auto& e : j.at("events"))
+      a.events.push_back({e.at("time_s").get<double>(), e.at("kind").get<std::string>(), e.at("tissue").get<std::string>(),
+                          e.at("depth_m").get<double>(), e.at("force_N").get<double>()});
+    if (j.contains("safety")) a.max_force = j.at("safety").value("max_force_N", a.max_force);
+    const auto& outputs = j.at("outputs");
+    const fs::path csv = dir / outputs.at("csv").get<std::string>();
+    if (Status s = read_force_traces(csv, a); !s) return s.error();
+    if (outputs.contains("frames"))
+      for (const auto& f : outputs.at("frames")) {
+        const double t_s = f.at("time_s").get<double>();
+        auto png = read_bytes(dir / f.at("file").get<std::string>());
+        if (!png) return png.error();
+        a.frames.push_back({t_s, std::move(*png), fmt::format("t = {:.2f} s", t_s)});
+      }
+  } catch (const nlohmann::json::exception& e) {
+    return Error{file.string() + ": " + e.what() + " (expected palpate run's summary.json)"};
+  }
+  if (fs::exists(dir / kFlashbackImage)) {
+    auto png = read_bytes(dir / kFlashbackImage);
+    if (!png) return png.error();
+    const double t = a.metrics.flashback ? a.metrics.flashback_time : a.metrics.arterial_flashback_time;
+    a.ultrasound = ReportImage{t, std::move(*png), fmt::format("flashback at t = {:.3f} s: the needle's tip as the probe shows it", t)};
+  }
+  if (a.frames.empty()) a.notes.push_back("No 3-D frames: the run had none (palpate run --frames N).");
   return a;
 }
 

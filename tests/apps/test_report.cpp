@@ -171,3 +171,36 @@ TEST_F(ReportInBrowser, ASceneNamedLikeMarkupShowsAsTextAndNoReportWritesNone) {
   ASSERT_EQ(none.code, 0) << none.out;
   EXPECT_FALSE(fs::exists(dir_ / "n" / "report.html"));
 }
+
+// `palpate report` puts several runs side by side: one row each in the attempts table, with their
+// outcomes, and each run's section with the ultrasound image its run saved (flashback_us.png). A
+// folder that is not a run's is refused, naming its summary.json.
+TEST_F(ReportInBrowser, SeveralRunsAreComparedInOneTable) {
+  Ran a = run(std::string("run ") + PALPATE_DATA_DIR + "/scenes/cvc.yaml -q -o " + (dir_ / "first").string());
+  ASSERT_EQ(a.code, 0) << a.out;
+  ASSERT_TRUE(fs::exists(dir_ / "first" / "flashback_us.png"));
+  Ran b = run(std::string("run ") + PALPATE_DATA_DIR + "/scenes/cvc-small-vein.yaml -q -o " + (dir_ / "second").string());
+  ASSERT_EQ(b.code, 0) << b.out;
+  const fs::path html = dir_ / "both.html";
+  Ran r = run("report " + (dir_ / "first").string() + " " + (dir_ / "second").string() + " -o " + html.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("first"), std::string::npos) << r.out;
+  const std::string text = read_text(html);
+  expect_self_contained(text);
+  const size_t table = text.find("<table class=\"attempts\">");
+  ASSERT_NE(table, std::string::npos);
+  const std::string rows = text.substr(table, text.find("</table>", table) - table);
+  const size_t first = rows.find("<td>first</td>"), second = rows.find("<td>second</td>");
+  ASSERT_NE(first, std::string::npos) << rows;
+  ASSERT_NE(second, std::string::npos) << rows;
+  EXPECT_LT(first, second);
+  EXPECT_NE(rows.find("<b>vein</b>", first), std::string::npos);
+  EXPECT_NE(rows.find("<b>posterior_wall</b>", second), std::string::npos);
+  EXPECT_NE(text.find("Ultrasound at the flashback"), std::string::npos) << "the first run's image";
+  EXPECT_GT(speckle_rows(screenshot(html, "both")), 100);
+
+  Ran bad = run("report " + dir_.string() + " -o " + (dir_ / "bad.html").string());
+  EXPECT_EQ(bad.code, 1) << bad.out;
+  EXPECT_NE(bad.out.find((dir_ / "summary.json").string() + ": cannot be read"), std::string::npos) << bad.out;
+  EXPECT_FALSE(fs::exists(dir_ / "bad.html"));
+}

@@ -69,6 +69,15 @@ Status write_report_html(std::span<const ReportAttempt> attempts, const std::fil
 // at that tick, drawn by running the scene again headless up to it (headless runs are
 // deterministic: tests/golden). A run whose needle was a hand (openhaptics) or was interrupted has
 // no such image: a note says so.
+// The image is also written into the run's folder as flashback_us.png, for read_report_attempt.
 Result<ReportAttempt> run_report_attempt(const SceneDef& scene, const RunSummary& summary, const RunOptions& options);
+
+// The attempt a run's output folder holds (`palpate report DIR...`): its summary.json (scene,
+// outcome, metrics, events, frames), run.csv (the force traces) and flashback_us.png when there is
+// one. Errors name the file, and the key or line, and what was expected.
+Result<ReportAttempt> read_report_attempt(const std::filesystem::path& run_dir);
+
+// The Outcome whose outcome_name() is `name`; false when none is.
+bool outcome_from_name(std::string_view name, Outcome& out) noexcept;
 
 }  // namespace palpate
