@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -367,6 +368,47 @@ TEST_F(View, ATiltInsideTheSkinTurnsTheNeedleAboutItsHole) {
   ASSERT_EQ(above.code, 0) << above.out;
   EXPECT_LT((exit_tool(above.out) - cvc_script_tip(1.0)).norm(), 1e-5) << "about the tip\n" << above.out;
   EXPECT_GT(std::acos(std::clamp(exit_needle_axis(above.out).dot(axis0), -1.0, 1.0)) * 180 / M_PI, 5.0) << above.out;
+}
+
+// The viewer's report.html (issue 35): every attempt of the session in one table — here A pressed
+// at once (an attempt with nothing done: `none`), then the script played into the vein — with the
+// second attempt's events, its 3-D views and the live ultrasound image at the flashback; the page
+// loads nothing. --no-report writes none.
+TEST_F(View, TheViewerWritesAReportOfEachAttemptOnExit) {
+  const fs::path report = dir_ / "report.html";
+  Ran r = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 2 --exit --no-panels --play-to 7.5 --keys a"
+               " --overrun-margin 0.05 --width 640 --height 480 --report " + report.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("report: " + report.string() + " (2 attempts)"), std::string::npos) << r.out;
+  std::ifstream in(report);
+  const std::string html((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t table = html.find("<table class=\"attempts\">");
+  ASSERT_NE(table, std::string::npos);
+  const std::string rows = html.substr(table, html.find("</table>", table) - table);
+  const size_t first = rows.find("<td>attempt 1</td>"), second = rows.find("<td>attempt 2</td>");
+  ASSERT_NE(first, std::string::npos) << rows;
+  ASSERT_NE(second, std::string::npos) << rows;
+  EXPECT_NE(rows.find("<b>none</b>", first), std::string::npos) << rows;
+  EXPECT_NE(rows.find("<b>vein</b>", second), std::string::npos) << rows;
+  const size_t section = html.find("id=\"attempt-2\"");
+  ASSERT_NE(section, std::string::npos);
+  EXPECT_NE(html.find("<td>puncture</td><td>skin</td>", section), std::string::npos);
+  EXPECT_NE(html.find("<td>flashback</td><td>vein</td>", section), std::string::npos);
+  EXPECT_NE(html.find("Ultrasound at the flashback", section), std::string::npos);
+  size_t images = 0;
+  for (size_t at = html.find("data:image/png;base64,", section); at != std::string::npos;
+       at = html.find("data:image/png;base64,", at + 1))
+    ++images;
+  EXPECT_EQ(images, 3u) << "the 3-D view at the skin puncture and at the flashback, and the ultrasound image";
+  EXPECT_EQ(html.find("http:"), std::string::npos);
+  EXPECT_EQ(html.find("https:"), std::string::npos);
+
+  const fs::path none = dir_ / "none.html";
+  Ran n = view(std::string(PALPATE_DATA_DIR) + "/scenes/cvc.yaml --frames 2 --exit --no-panels --no-report"
+               " --overrun-margin 0.05 --width 640 --height 480 --report " + none.string());
+  ASSERT_EQ(n.code, 0) << n.out;
+  EXPECT_FALSE(fs::exists(none));
+  EXPECT_EQ(n.out.find("report:"), std::string::npos) << n.out;
 }
 
 TEST_F(View, TheCvcSceneHoldsTheUltrasoundProbeOnTheSkinAndShowsItsImage) {

@@ -114,7 +114,7 @@ void add_view_command(CLI::App& app) {
                    "Play the scene's scripted tools to this time (s) and pause there; with --exit, exit once there")
       ->check(CLI::Range(0.0, 1e6));
   view->add_option("--keys", args->options.keys,
-                   "Keys pressed at open, one a frame: v turns the probe 90 deg, space plays, n steps 0.1 s, r untilts")
+                   "Keys pressed at open, one a frame: v turns the probe 90 deg, space plays, n steps 0.1 s, r untilts, a starts a new attempt")
       ->check([](const std::string& k) {
         return k.find_first_not_of(" abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789") == std::string::npos
                    ? std::string()
@@ -123,6 +123,9 @@ void add_view_command(CLI::App& app) {
   view->add_option("--tilt", args->tilt,
                    "With --exit: after the press / the script, tilt the needle as a ctrl + left drag of dx,dy pixels "
                    "(about the skin hole once it is in), then settle");
+  view->add_option("--report", args->options.report,
+                   "report.html of the session's attempts, written on exit (default: report.html in the scene's output folder)");
+  view->add_flag("--no-report", args->options.no_report, "Write no report.html on exit");
   // A callback, not "!--no-panels" bound to the bool: CLI11 would print that one's value ({false}) in --help.
   view->add_flag_callback("--no-panels", [args] { args->options.panels = false; }, "Hide the ImGui panels");
   view->add_flag_callback("--screenshot-panels", [args] { args->options.screenshot_panels = true; },

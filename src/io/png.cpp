@@ -17,16 +17,21 @@ void append_bytes(void* context, void* data, int size) {
 
 }  // namespace
 
-Status write_png(const Image& image, const std::filesystem::path& file) {
+Result<std::string> encode_png(const Image& image) {
   if (image.width < 1 || image.height < 1 || image.rgba.size() != size_t(image.width) * image.height * 4)
-    return Error{file.string() + ": image is " + std::to_string(image.width) + " x " +
-                 std::to_string(image.height) + " with " + std::to_string(image.rgba.size()) +
-                 " bytes; expected width x height x 4 bytes of RGBA"};
+    return Error{"image is " + std::to_string(image.width) + " x " + std::to_string(image.height) + " with " +
+                 std::to_string(image.rgba.size()) + " bytes; expected width x height x 4 bytes of RGBA"};
   std::string png;
   png.reserve(image.rgba.size() / 4);
   if (!stbi_write_png_to_func(append_bytes, &png, image.width, image.height, 4, image.rgba.data(), image.width * 4))
-    return Error{file.string() + ": PNG encoding failed"};
-  return write_file_atomic(file, png, /*create_directories=*/false);
+    return Error{"PNG encoding failed"};
+  return png;
+}
+
+Status write_png(const Image& image, const std::filesystem::path& file) {
+  auto png = encode_png(image);
+  if (!png) return Error{file.string() + ": " + png.error().message};
+  return write_file_atomic(file, *png, /*create_directories=*/false);
 }
 
 }  // namespace palpate

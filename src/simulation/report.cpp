@@ -140,7 +140,8 @@ std::string force_svg(const ReportAttempt& a) {
   }
   for (int k = 0; k <= 8; ++k) {  // the time axis
     const double t = t1 * k / 8;
-    s += fmt::format("<text x=\"{:.1f}\" y=\"{}\" font-size=\"11\" text-anchor=\"middle\">{:.1f} s</text>\n", X(t), H - 10, t);
+    s += fmt::format("<text x=\"{:.1f}\" y=\"{}\" font-size=\"11\" text-anchor=\"middle\">{:.{}f} s</text>\n", X(t), H - 10, t,
+                     t1 < 0.8 ? 3 : t1 < 8 ? 2 : 1);
   }
   // The events: a line each; labels stacked up from the bottom, so none covers a peak.
   int stack = 0;
@@ -259,8 +260,9 @@ Result<std::string> read_bytes(const std::filesystem::path& file) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-// Thin a trace to at most `most` points: each bucket's first point, and its extremes.
-std::vector<std::array<double, 2>> thin(const std::vector<std::array<double, 2>>& pts, size_t most) {
+}  // namespace
+
+std::vector<std::array<double, 2>> thin_trace(const std::vector<std::array<double, 2>>& pts, size_t most) {
   if (pts.size() <= most) return pts;
   std::vector<std::array<double, 2>> out;
   const size_t buckets = most / 2;
@@ -274,8 +276,6 @@ std::vector<std::array<double, 2>> thin(const std::vector<std::array<double, 2>>
   }
   return out;
 }
-
-}  // namespace
 
 namespace {
 
@@ -304,8 +304,8 @@ Status read_force_traces(const std::filesystem::path& csv, ReportAttempt& a) {
     force.push_back({t, v});
     if (cp >= 0 && io::csv_number(f[size_t(cp)], p)) probe.push_back({t, p});
   }
-  a.force = thin(force, 4000);
-  a.probe_force = thin(probe, 4000);
+  a.force = thin_trace(force, 4000);
+  a.probe_force = thin_trace(probe, 4000);
   return {};
 }
 

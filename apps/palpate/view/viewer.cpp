@@ -51,11 +51,13 @@ Status Viewer::start_loop() {
   if (!loop) return loop.error();
   if (Status started = (*loop)->start(); !started) return started;
   loop_ = *loop;
+  begin_attempt();
   return {};
 }
 
 void Viewer::stop_loop() {
   if (loop_) loop_->stop();
+  end_attempt();  // its metrics are the stopped loop's last
   loop_ = nullptr;
 }
 
@@ -145,6 +147,9 @@ void Viewer::handle_key(int key) {
       break;
     case GLFW_KEY_V:
       turn_probe();
+      break;
+    case GLFW_KEY_A:
+      if (scene_.tool.kind == "needle") new_attempt();
       break;
     default:
       break;
@@ -513,6 +518,7 @@ int Viewer::run() {
     }
     frame_input(width, height);
     draw_scene(fb_width, fb_height);
+    record_attempt(fb_width, fb_height);  // the 3-D view read before the panels are drawn over it
 
     // Screenshots show the scene without the panels: taken before ImGui draws over it.
     // --tilt, once the press (--probe) and the script (--play-to) are done and the tools arrived:
@@ -572,6 +578,8 @@ int Viewer::run() {
     }
   }
   force_ = device_->force();
+  end_attempt();  // the last attempt, with the loop's metrics now
+  if (!write_report() && code == 0) code = 1;
   if (!options_.quiet) report_exit(frames);
   std::fflush(stdout);
   stop_loop();
@@ -618,6 +626,7 @@ void detail::Viewer::report_exit(int frames) {
     fmt::print("probe_force_N: {:.6f}\n", probe_device_->force().norm());
     fmt::print("ultrasound_images: {} rendered, {} shown\n", us_feed_ ? us_feed_->rendered() : 0, us_shown_);
   }
+  if (!report_written_.empty()) fmt::print("report: {} ({} attempts)\n", report_written_.string(), attempts_.size());
 }
 
 }  // namespace palpate::view

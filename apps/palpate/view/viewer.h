@@ -46,6 +46,11 @@ struct ViewerOptions {
   // With exit_after: once everything else is done, tilt the needle as a ctrl + left drag of
   // (dx, dy) pixels would (about the skin hole once it is through the skin), then settle.
   std::optional<std::array<double, 2>> tilt;
+  // A needle scene writes report.html on exit (docs/cvc.md, "The report"): each attempt of the
+  // session — from the start, and from each "New attempt" (A) or reset to rest — side by side.
+  // "" = report.html in the scene's output folder; no_report: none.
+  std::filesystem::path report;
+  bool no_report = false;
 };
 
 // Open the window and run until it is closed (or, with exit_after, until done). Returns the

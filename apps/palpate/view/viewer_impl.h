@@ -18,6 +18,7 @@
 #include <palpate/device.h>
 #include <palpate/haptics.h>
 #include <palpate/outcome.h>
+#include <palpate/report.h>
 #include <palpate/simulation.h>
 #include <palpate/surface.h>
 #include <palpate/tissue.h>
@@ -138,6 +139,14 @@ class Viewer {
   void play_script(double frame_seconds); // the player's clock into the feeders' targets
   Quat probe_turn() const;                // the quarter turn V put on the probe (about its beam)
   void draw_script_panel();
+  // The report's attempts: one begins when the loop starts, ends when it stops (a reset, a
+  // rebuilt tissue, the exit); each frame adds the forces, the events (the live metrics' changes)
+  // and, at the first skin puncture and the flashback, the 3-D view and the ultrasound image.
+  void begin_attempt();
+  void record_attempt(int fb_width, int fb_height);
+  void end_attempt();
+  void new_attempt();  // A, "New attempt": the tissues back to rest, a new attempt begun
+  bool write_report();
 
   static void on_scroll(GLFWwindow* window, double dx, double dy);
   static void on_key(GLFWwindow* window, int key, int scancode, int action, int mods);
@@ -197,6 +206,14 @@ class Viewer {
   std::unique_ptr<ScriptPlayer> player_;  // the scene's scripted tools, played in the window
   bool probe_turned_ = false;  // V: the probe a quarter turn about its beam from the script's
   std::string pending_keys_;   // --keys not yet pressed
+  // The report: the session's attempts, the one going on, its clock and the metrics last seen.
+  std::vector<ReportAttempt> attempts_;
+  ReportAttempt attempt_;
+  bool attempt_open_ = false;
+  Clock::time_point attempt_start_;
+  TrainingMetrics seen_;
+  std::vector<std::array<double, 2>> attempt_force_, attempt_probe_force_;
+  std::filesystem::path report_written_;
   int screenshot_count_ = 0;
 
   // Scripted probe (--probe).

@@ -207,6 +207,10 @@ void Viewer::draw_panels() {
         ImGui::TextColored(ImVec4(1.0f, 0.25f, 0.2f, 1.0f), "ARTERIAL flashback at %.2f s: pulsatile, bright red",
                            m.arterial_flashback_time);
       ImGui::Text("deepest %.1f mm below the skin  peak |F| %.2f N", 1e3 * m.deepest_depth, m.peak_force);
+      // Each attempt goes into report.html on exit; a new one starts from the tissues at rest.
+      if (ImGui::Button("New attempt")) new_attempt();
+      ImGui::SameLine();
+      ImGui::TextDisabled("A  (%zu before this one)", attempts_.size());
     }
   }
   if (ImGui::CollapsingHeader("Haptic loop", ImGuiTreeNodeFlags_DefaultOpen)) {
@@ -266,15 +270,7 @@ void Viewer::draw_panels() {
       }
       ImGui::PopID();
     }
-    if (ImGui::Button("Reset all to rest")) {
-      stop_loop();
-      for (auto& t : tissues_) {
-        t->reset();
-        t->publish_now();
-      }
-      Status started = start_loop();
-      if (!started) loop_error_ = started.error().message;
-    }
+    if (ImGui::Button("Reset all to rest")) new_attempt();
     if (!rebuild_message_.empty()) ImGui::TextWrapped("%s", rebuild_message_.c_str());
   }
   ImGui::End();

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 namespace palpate {
@@ -20,5 +21,8 @@ struct Image {
 // Write a PNG atomically: to a temporary file beside `file`, renamed over it when complete, so
 // a reader never sees half an image. Fails naming the file when it cannot be written.
 Status write_png(const Image& image, const std::filesystem::path& file);
+
+// The PNG file's bytes, in memory (a report's data: URI). Fails for a malformed image.
+Result<std::string> encode_png(const Image& image);
 
 }  // namespace palpate

@@ -69,6 +69,9 @@ Status write_report_html(std::span<const ReportAttempt> attempts, const std::fil
 // at that tick, drawn by running the scene again headless up to it (headless runs are
 // deterministic: tests/golden). A run whose needle was a hand (openhaptics) or was interrupted has
 // no such image: a note says so.
+// A trace thinned to at most `most` points for the plot: per interval its extremes, in time order.
+std::vector<std::array<double, 2>> thin_trace(const std::vector<std::array<double, 2>>& points, size_t most);
+
 // The image is also written into the run's folder as flashback_us.png, for read_report_attempt.
 Result<ReportAttempt> run_report_attempt(const SceneDef& scene, const RunSummary& summary, const RunOptions& options);
 
