@@ -109,6 +109,31 @@ Vec3 section_normal(const VesselSection& v, const Vec3& p) {
   return n.norm() > 0 ? Vec3(n.normalized()) : Vec3(v.minor_dir);
 }
 
+// A vessel's section between two computed ones (w in [0, 1] from s0 to s1): centre, semi-axes and
+// pressures linearly, the directions renormalised. A longitudinal view cuts the vessel along its
+// length, and the nearest of a few sections drew a compressed vein as a staircase.
+VesselSection section_between(const VesselSection& s0, const VesselSection& s1, double w) {
+  if (!(w > 0)) return s0;
+  if (!(w < 1)) return s1;
+  VesselSection v = s0;
+  v.centre = (1 - w) * s0.centre + w * s1.centre;
+  v.a = (1 - w) * s0.a + w * s1.a;
+  v.b = (1 - w) * s0.b + w * s1.b;
+  v.external_pressure = (1 - w) * s0.external_pressure + w * s1.external_pressure;
+  v.transmural_pressure = (1 - w) * s0.transmural_pressure + w * s1.transmural_pressure;
+  v.area_ratio = (1 - w) * s0.area_ratio + w * s1.area_ratio;
+  // The directions are the same in every section today (the vessels run along z, the load's
+  // direction is the probe's); renormalise only when they differ.
+  if (s0.axis != s1.axis || s0.minor_dir != s1.minor_dir) {
+    const Vec3 axis = (1 - w) * s0.axis + w * s1.axis;
+    if (axis.norm() > 1e-9) v.axis = axis.normalized();
+    Vec3 minor = (1 - w) * s0.minor_dir + w * s1.minor_dir;
+    minor -= minor.dot(v.axis) * v.axis;
+    if (minor.norm() > 1e-9) v.minor_dir = minor.normalized();
+  }
+  return v;
+}
+
 // Zero-padded 1-D convolution of interleaved complex samples with a real kernel: out[i] = Σ_k
 // in[i + k − half] · kernel[k] over n complex samples, `in` holding `half` zero samples before and
 // after them (2(n + 2·half) floats). Each output's sum runs over k in order, as a plain loop over
@@ -207,14 +232,13 @@ void UltrasoundImager::render(const ProbePose& probe, const NeedlePose& needle, 
     vein[k] = model_.vein_at(s, along);
     artery[k] = model_.artery_at(s, along);
   }
-  const auto section_index = [&](double z) {
-    return std::clamp(int(fast_floor((z - z0) / (z1 - z0) * (kSections - 1) + 0.5)), 0, kSections - 1);
-  };
-  // The sections at a point z along the vessels: the nearest computed one.
+  // The sections at a point z along the vessels: interpolated between the two computed ones around it.
   const auto sections_at = [&](double z, VesselSection& v, VesselSection& av) {
-    const int k = section_index(z);
-    v = vein[k];
-    av = artery[k];
+    const double pos = std::clamp((z - z0) / (z1 - z0) * (kSections - 1), 0.0, double(kSections - 1));
+    const int k = std::min(int(pos), kSections - 2);
+    const double w = pos - k;
+    v = section_between(vein[k], vein[k + 1], w);
+    av = section_between(artery[k], artery[k + 1], w);
   };
 
   // The needle's tenting of the vein's wall near the plane: the largest inward displacement of the
