@@ -410,6 +410,48 @@ int first_dark_row(const UltrasoundImage& img, int col, int row0, int level = 40
   return -1;
 }
 
+TEST(Ultrasound, ALongitudinalViewShowsThePressedVeinSmoothAlongItsLength) {
+  // The probe along the neck over the vein (in-plane with it), pressed: the probe loads the vein
+  // unevenly along its length (most under the face's middle), so its lumen's top dips toward the
+  // image's middle. It must do so smoothly: the image takes each column's section between the few
+  // computed along the vein; the nearest of them drew the vein as a staircase of 9 steps, its top
+  // jumping 3 rows between two columns at 1.5 N and 10 at 1.25 N (the PSF spreads a step over a
+  // few columns, so the check needs a press where the steps are large).
+  const NeckDef neck;
+  ProbeDef probe;
+  probe.lateral = Vec3(0, 0, 1);
+  UltrasoundImager us(neck, probe);
+  for (const double force : {1.25, 1.5}) {
+    const ProbePose pose = pressed_with(us.neck(), neck, force);
+    UltrasoundImage img;
+    us.render(pose, {}, 0, img);
+    save_if_asked(img, force == 1.5 ? "us_longitudinal.png" : "us_longitudinal_light.png");
+    const auto s = us.neck().state(pose, 0);
+    const int centre = int(std::lround(to_pixel(us, pose, s.vein.centre).y()));
+    const int from = int(centre - 1.5 * s.vein.rest_radius / img.pixel_depth);  // above the vein
+    // The lumen's top in one column (alone, so a step stays a step): from the darkest 3-row mean
+    // within 15 rows of the centre's row, up to the last dark row (the blood is ~40 dB below tissue).
+    std::vector<int> top;
+    for (int col = img.width / 10; col < img.width - img.width / 10; ++col) {
+      const auto mean3 = [&](int r) {
+        return (img.grey[size_t(r - 1) * img.width + col] + img.grey[size_t(r) * img.width + col] +
+                img.grey[size_t(r + 1) * img.width + col]) / 3;
+      };
+      int darkest = 256, row = -1;
+      for (int r = centre - 15; r <= centre + 15; ++r)
+        if (mean3(r) < darkest) darkest = mean3(r), row = r;
+      ASSERT_LT(darkest, 30) << force << " N: a lumen under column " << col;
+      while (row > from && mean3(row - 1) < 60) --row;
+      top.push_back(row);
+    }
+    // It dips (the press is real), and it is smooth: at most two rows between neighbouring columns.
+    EXPECT_GT(*std::max_element(top.begin(), top.end()), std::min(top.front(), top.back()) + 4) << force << " N";
+    int largest = 0;
+    for (size_t i = 1; i < top.size(); ++i) largest = std::max(largest, std::abs(top[i] - top[i - 1]));
+    EXPECT_LE(largest, 2) << force << " N: the lumen's top jumps by " << largest << " rows between neighbouring columns";
+  }
+}
+
 TEST(Ultrasound, TheVeinsWallShowsTentedWhereTheNeedlesTissuePushesIt) {
   const NeckDef neck;
   const ProbeDef probe;

@@ -164,6 +164,9 @@ class UltrasoundImager {
   std::vector<double> tgc_;                        // scratch: time-gain compensation per row
   std::vector<Vec3f> wall_rest_, wall_now_;        // the vein wall's particles (set_vein_wall)
   std::vector<Vec3> rest_;                         // scratch: the inverse displacement map's grid
+  std::vector<int> row_cell_;                      // scratch: per row, the rest map's grid row below
+  std::vector<double> row_weight_;                 // scratch: per row, the grid row above's weight
+  std::vector<float> pad_, rows_, lateral_out_;    // scratch: the PSF's zero-padded lines (re, im)
 };
 
 // Write an ultrasound image as an 8-bit grey PNG (atomically, via <file>.part).
