@@ -34,9 +34,9 @@ TEST(Report, Base64IsRfc4648sTestVectors) {
 }
 
 TEST(Report, HtmlEscapeTurnsEveryMarkupCharacterIntoItsEntity) {
-  EXPECT_EQ(palpate::html_escape("<script>alert('x' & \"y\")</script>"),
+  EXPECT_EQ(palpate::markup_escape("<script>alert('x' & \"y\")</script>"),
             "&lt;script&gt;alert(&#39;x&#39; &amp; &quot;y&quot;)&lt;/script&gt;");
-  EXPECT_EQ(palpate::html_escape("vein, 6.5 mm — ü"), "vein, 6.5 mm — ü");
+  EXPECT_EQ(palpate::markup_escape("vein, 6.5 mm — ü"), "vein, 6.5 mm — ü");
 }
 
 // A clean pass into the vein meets every judged criterion; into the carotid through both walls of

@@ -20,20 +20,6 @@ void ExportGrid::add_cell(std::uint8_t type, std::span<const std::int64_t> ids) 
 
 namespace {
 
-std::string xml_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
 // The appended section: each block is a UInt64 byte count and the raw bytes. Blocks are laid out
 // in the reverse of the order the XML names them: meshio (7.0, Debian 12) finds each block by its
 // offset after rewriting the earlier ones' offsets, and a rewritten offset can equal a later
@@ -72,7 +58,7 @@ class Appended {
 
 std::string data_array(const char* type, const std::string& name, int components, const std::string& offset) {
   return fmt::format("        <DataArray type=\"{}\" Name=\"{}\" NumberOfComponents=\"{}\" format=\"appended\" offset=\"{}\"/>\n",
-                     type, xml_escape(name), components, offset);
+                     type, markup_escape(name), components, offset);
 }
 
 std::string arrays(const std::vector<ExportArray>& list, Appended& app, size_t tuples, const std::string& where,
@@ -116,7 +102,7 @@ Status write_vtu(const std::filesystem::path& file, const ExportGrid& g) {
       const std::string off = app.add(a.values.data(), a.values.size());
       xml += fmt::format("      <DataArray type=\"Float64\" Name=\"{}\" NumberOfTuples=\"{}\" NumberOfComponents=\"{}\" "
                          "format=\"appended\" offset=\"{}\"/>\n",
-                         xml_escape(a.name), a.values.size() / size_t(a.components), a.components, off);
+                         markup_escape(a.name), a.values.size() / size_t(a.components), a.components, off);
     }
     xml += "    </FieldData>\n";
   }
@@ -147,7 +133,7 @@ Status write_pvd(const std::filesystem::path& file, std::span<const PvdDataSet> 
   std::string xml = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n";
   for (const PvdDataSet& s : sets)
     xml += fmt::format("    <DataSet timestep=\"{:.17g}\" group=\"\" part=\"{}\" name=\"{}\" file=\"{}\"/>\n", s.time, s.part,
-                       xml_escape(s.name), xml_escape(s.file));
+                       markup_escape(s.name), markup_escape(s.file));
   xml += "  </Collection>\n</VTKFile>\n";
   return write_file_atomic(file, xml);
 }

@@ -18,22 +18,6 @@
 
 namespace palpate {
 
-std::string html_escape(std::string_view text) {
-  std::string out;
-  out.reserve(text.size() + text.size() / 8);
-  for (const char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
 std::string base64(std::string_view bytes) {
   static constexpr char kDigits[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
@@ -153,7 +137,7 @@ std::string force_svg(const ReportAttempt& a) {
     last_x = x;
     s += fmt::format("<line class=\"event\" x1=\"{0:.1f}\" x2=\"{0:.1f}\" y1=\"{1}\" y2=\"{2}\" stroke=\"{3}\" stroke-dasharray=\"4 3\"/>"
                      "<text x=\"{4:.1f}\" y=\"{5:.1f}\" font-size=\"10\" fill=\"{3}\">{6} {7}</text>\n",
-                     x, T, H - B, event_colour(e.kind), x + 3, H - B - 6 - 12.0 * stack, html_escape(e.kind), html_escape(e.tissue));
+                     x, T, H - B, event_colour(e.kind), x + 3, H - B - 6 - 12.0 * stack, markup_escape(e.kind), markup_escape(e.tissue));
   }
   const auto polyline = [&](const std::vector<std::array<double, 2>>& pts, const char* colour, const char* cls) {
     if (pts.empty()) return;
@@ -172,10 +156,10 @@ std::string force_svg(const ReportAttempt& a) {
 
 std::string image_html(const ReportImage& img, const char* cls, int width) {
   return fmt::format("<figure class=\"{}\"><img alt=\"{}\" width=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>\n",
-                     cls, html_escape(img.caption), width, base64(img.png), html_escape(img.caption));
+                     cls, markup_escape(img.caption), width, base64(img.png), markup_escape(img.caption));
 }
 
-std::string table_cell(const std::string& text) { return "<td>" + html_escape(text) + "</td>"; }
+std::string table_cell(const std::string& text) { return "<td>" + markup_escape(text) + "</td>"; }
 
 }  // namespace
 
@@ -185,14 +169,14 @@ std::string report_html(std::span<const ReportAttempt> attempts) {
        // Nothing from anywhere else: no script, no font, no image but the page's own data: URIs.
        "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; img-src data:; style-src 'unsafe-inline'\">\n";
   const std::string title = attempts.empty() ? std::string("no attempt") : attempts.front().scene;
-  h += "<title>palpate report: " + html_escape(title) + "</title>\n";
+  h += "<title>palpate report: " + markup_escape(title) + "</title>\n";
   h += "<style>\nbody{font-family:sans-serif;margin:16px;color:#212121;background:#fff;max-width:960px}\n"
        "table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #bdbdbd;padding:3px 6px;font-size:13px;text-align:left}\n"
        "th{background:#eceff1}.met{background:#c8e6c9}.notmet{background:#ffcdd2}\n"
        ".outcome{color:#fff;padding:10px 14px;font-size:22px;font-weight:bold;margin:8px 0}\n"
        "figure{display:inline-block;margin:4px}figcaption{font-size:12px;color:#616161}\n"
        ".note{color:#795548;font-size:13px}\n</style>\n</head>\n<body>\n";
-  h += "<h1>palpate: " + html_escape(title) + "</h1>\n";
+  h += "<h1>palpate: " + markup_escape(title) + "</h1>\n";
   h += fmt::format("<p>{} attempt{}. Metrics are judged against published figures ({}); "
                    "docs/cvc.md says how sure each one is.</p>\n",
                    attempts.size(), attempts.size() == 1 ? "" : "s",
@@ -218,9 +202,9 @@ std::string report_html(std::span<const ReportAttempt> attempts) {
   for (size_t i = 0; i < attempts.size(); ++i) {
     const ReportAttempt& a = attempts[i];
     h += fmt::format("<section class=\"attempt\" id=\"attempt-{}\">\n", i + 1);
-    h += "<h2>" + html_escape(a.label) + "</h2>\n";
-    h += "<p>scene <b>" + html_escape(a.scene) + "</b>" +
-         (a.scene_file.empty() ? std::string() : " (" + html_escape(a.scene_file) + ")") +
+    h += "<h2>" + markup_escape(a.label) + "</h2>\n";
+    h += "<p>scene <b>" + markup_escape(a.scene) + "</b>" +
+         (a.scene_file.empty() ? std::string() : " (" + markup_escape(a.scene_file) + ")") +
          fmt::format(", {:.1f} s</p>\n", a.duration);
     h += fmt::format("<div class=\"outcome\" style=\"background:{}\">outcome: {}</div>\n", outcome_colour(a.metrics.outcome),
                      outcome_name(a.metrics.outcome));
@@ -241,10 +225,10 @@ std::string report_html(std::span<const ReportAttempt> attempts) {
       h += "<h3>3-D frames</h3>\n";
       for (const ReportImage& f : a.frames) h += image_html(f, "frame", 300);
     }
-    for (const std::string& n : a.notes) h += "<p class=\"note\">" + html_escape(n) + "</p>\n";
+    for (const std::string& n : a.notes) h += "<p class=\"note\">" + markup_escape(n) + "</p>\n";
     h += "</section>\n";
   }
-  h += "<p class=\"note\">Written by palpate " + html_escape(std::string(version())) + ".</p>\n</body>\n</html>\n";
+  h += "<p class=\"note\">Written by palpate " + markup_escape(std::string(version())) + ".</p>\n</body>\n</html>\n";
   return h;
 }
 

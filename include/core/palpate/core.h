@@ -86,6 +86,10 @@ Status check_regular_file(const std::filesystem::path& file, std::string_view ex
 // The checksum of palpate's binary files and the predictor's mesh hash.
 std::uint64_t fnv1a64(const void* data, std::size_t size) noexcept;
 
+// Text made safe inside XML and HTML markup (a VTK file's names, report.html): & < > " ' as their
+// entities, everything else (UTF-8 too) as it is.
+std::string markup_escape(std::string_view text);
+
 // The library's version, "MAJOR.MINOR.PATCH".
 const char* version();
 

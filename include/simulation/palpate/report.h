@@ -4,7 +4,7 @@
 // time with the events marked, the ultrasound image at the flashback and the 3-D frames; several
 // attempts side by side in one table. One self-contained file: the plot is inline SVG, the images
 // are data: URIs, and a Content-Security-Policy forbids the page every load from elsewhere. Every
-// text that comes from a scene or a file is escaped.
+// text that comes from a scene or a file is escaped (markup_escape, palpate/core.h).
 #pragma once
 
 #include <palpate/core.h>
@@ -54,8 +54,6 @@ struct ReportCriterion {
 };
 std::vector<ReportCriterion> report_criteria(const ReportAttempt& attempt);
 
-// "&<>\"'" as entities; everything else as it is (UTF-8 passes through).
-std::string html_escape(std::string_view text);
 // RFC 4648 base64 (the data: URIs).
 std::string base64(std::string_view bytes);
 
