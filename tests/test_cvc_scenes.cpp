@@ -10,6 +10,7 @@
 #include <palpate/ultrasound.h>
 
 #include <gtest/gtest.h>
+#include <fmt/core.h>
 
 #include <algorithm>
 #include <cmath>
@@ -17,6 +18,7 @@
 #include <filesystem>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <set>
 #include <map>
 #include <sstream>
@@ -407,4 +409,33 @@ TEST(CvcScenes, TheDocsProbeScriptIsTheScenes) {
     std::snprintf(depth, sizeof depth, "%.1f mm", -w.position.y() * 1e3);
     EXPECT_NE(doc.find(depth), std::string::npos) << depth;
   }
+}
+
+// docs/cvc.md's in-plane paragraph is cvc-in-plane.yaml's: the probe turned along the vein, its face
+// centred at z = +3 mm so the needle enters the skin beyond its cranial end, a check press of
+// 11.5 mm that loads the neck with about 3.1 N (below the device's limit: no clamped tick).
+TEST(CvcScenes, TheInPlaneSceneIsTheDocs) {
+  const Shipped s = run_shipped("cvc-in-plane.yaml");
+  ASSERT_TRUE(s.scene.probe.has_value());
+  const ProbeDef& p = *s.scene.probe;
+  EXPECT_TRUE(p.lateral.isApprox(Vec3(0, 0, 1), 1e-12)) << "the array along the vein";
+  double deepest = 0, centre_z = 0;
+  for (const Waypoint& w : p.device.waypoints) deepest = std::max(deepest, -w.position.y()), centre_z = w.position.z();
+  std::ifstream in(std::string(PALPATE_SOURCE_DIR) + "/docs/cvc.md");
+  const std::string doc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(doc.find(fmt::format("is {:.1f} mm (", 1e3 * deepest)), std::string::npos) << deepest;
+  EXPECT_NE(doc.find(fmt::format("(z = +{:.0f} mm)", 1e3 * centre_z)), std::string::npos) << centre_z;
+  // Where the needle's path (its first and its deepest waypoints) crosses the rest skin (y = 0):
+  // beyond the face's cranial end (centre − half its width), by the docs' 2 mm.
+  const Vec3 a = s.scene.device.waypoints.front().position, b = s.scene.device.waypoints[2].position;
+  const double entry_z = a.z() + (b.z() - a.z()) * a.y() / (a.y() - b.y());
+  const double face_end = centre_z - 0.5 * p.width;
+  EXPECT_NEAR(face_end - entry_z, 0.002, 0.0005) << entry_z;
+  ASSERT_EQ(s.run.tools.size(), 1u);
+  const LoopToolStats& probe = s.run.tools.front();
+  EXPECT_EQ(probe.safety.clamped, 0u);
+  EXPECT_GT(probe.max_force, 2.9);
+  EXPECT_LT(probe.max_force, 3.3);
+  EXPECT_NE(doc.find(fmt::format("({:.1f} N;", probe.max_force)), std::string::npos) << probe.max_force;
+  EXPECT_EQ(s.run.metrics.outcome, Outcome::vein);
 }
