@@ -298,27 +298,14 @@ Vec3 NeckCompression::rest_point(const State& s, const Vec3& x, SectionCache* ca
   // The half-space: x = X + u(X). u varies over centimetres and by millimetres: a contraction, so
   // a few fixed-point steps converge to well under a micrometre.
   // Warm-started from the last point asked for (the tip moves micrometres a tick), to 1 nm.
-  // Two warm starts (the tip's and the shaft entry's, asked for in turn each tick): from the nearer.
-  Vec3 X = x;
-  int slot = -1;
-  if (cache) {
-    double best = 0.01 * 0.01;  // within 10 mm; farther, x itself is as good a start
-    for (int i = 0; i < 2; ++i) {
-      const double d = cache->warm[i].x.allFinite() ? (x - cache->warm[i].x).squaredNorm() : INFINITY;
-      if (d < best) best = d, slot = i;
-    }
-    if (slot >= 0) X = cache->warm[slot].X + (x - cache->warm[slot].x);
-  }
+  Vec3 X = cache && cache->last_x.allFinite() ? Vec3(cache->last_X + (x - cache->last_x)) : x;
   for (int k = 0; k < 12; ++k) {
     const Vec3 next = x - displacement(s, X);
     const double step = (next - X).squaredNorm();
     X = next;
     if (step < 1e-18) break;
   }
-  if (cache) {
-    if (slot < 0) slot = cache->warm_next, cache->warm_next ^= 1;  // a new place: the older slot
-    cache->warm[slot] = {x, X};
-  }
+  if (cache) cache->last_x = x, cache->last_X = X;
   // Each vessel near x: its deformed section back onto its rest circle (Xv), with a weight w that is
   // 1 inside it and on its wall and falls to 0 two rest radii outside, and x's distance outside its
   // wall. Where both vessels reach (the gap between the vein and the carotid), the nearer wall

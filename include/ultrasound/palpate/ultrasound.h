@@ -125,12 +125,7 @@ class NeckCompression final : public ToolForceModel {
       VesselSection geometry;  // section_geometry's part (no tube law)
     } slots[2][2];             // [vessel][two places along it: the tip and where the shaft enters]
     int next[2] = {0, 0};
-    // The half-space inverse's warm starts: the last two points asked for (the tip and where the
-    // shaft enters, each tick), each starting the next point nearest it.
-    struct Warm {
-      Vec3 x = Vec3::Constant(std::numeric_limits<double>::quiet_NaN()), X = Vec3::Zero();
-    } warm[2];
-    int warm_next = 0;
+    Vec3 last_x = Vec3::Constant(std::numeric_limits<double>::quiet_NaN()), last_X = Vec3::Zero();
   };
   std::uint64_t posed_generation_ = 0;
   ProbePose posed_pose_;
