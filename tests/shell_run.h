@@ -4,6 +4,9 @@
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <sys/wait.h>
 
@@ -25,6 +28,15 @@ inline Ran shell_run(const std::string& command) {
   const int status = pclose(p);
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+// The palpate command (PALPATE_CLI, the test binary's definition) with `args`.
+inline Ran run_cli(const std::string& args) { return shell_run(std::string(PALPATE_CLI) + " " + args); }
+
+// A file's whole contents, bytes as they are ("" when it cannot be read).
+inline std::string read_file(const std::filesystem::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
 }
 
 }  // namespace palpate::test

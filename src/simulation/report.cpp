@@ -106,7 +106,7 @@ const char* event_colour(const std::string& kind) {
 std::string force_svg(const ReportAttempt& a) {
   constexpr double W = 900, H = 300, L = 50, R = 10, T = 10, B = 30;
   const double t1 = a.duration > 0 ? a.duration : (a.force.empty() ? 1.0 : a.force.back()[0]);
-  double top = std::max(0.5, 0.0);
+  double top = 0.5;  // N, the smallest scale
   for (const auto& p : a.force) top = std::max(top, p[1]);
   for (const auto& p : a.probe_force) top = std::max(top, p[1]);
   top = std::ceil(top * 1.1 * 2) / 2;

@@ -26,12 +26,9 @@ namespace {
 namespace fs = std::filesystem;
 using palpate::test::Ran;
 
-Ran run(const std::string& args) { return palpate::test::shell_run(std::string(PALPATE_CLI) + " " + args); }
+Ran run(const std::string& args) { return palpate::test::run_cli(args); }
 
-std::string read_text(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
+std::string read_text(const fs::path& p) { return palpate::test::read_file(p); }
 
 struct PvdSet {
   double time;
