@@ -13,7 +13,8 @@ TEST(SceneErrors, UnknownKeySuggestsTheClosestAndListsValidKeys) {
             "s.yaml:5: tissues[0].material.max_displacment: unknown key (did you mean 'max_displacement'?); "
             "valid charged_particles material keys: max_displacement, elasticity, particle_radius, "
             "max_strain, max_separation, puncture_force, linear_share, snap_share, puncture_time, hole_closes, "
-            "two_sided, thickness, friction_per_length, friction_presliding, mesh_spacing, force_model, "
+            "two_sided, thickness, friction_per_length, friction_presliding, cutting_force, cutting_drag_per_length, "
+            "wound_gap, mesh_spacing, force_model, "
             "particle_charge, hip_charge");
   // A key of the model before its force became a law of the indentation says what replaced it.
   const std::string old = error_of("tissues:\n  - name: a\n    patch: {}\n    material:\n      sphere_of_influence: 0.002\n");
@@ -87,7 +88,7 @@ TEST(SceneErrors, OutOfRangeGivesTheRangeAndUnit) {
 
 TEST(SceneErrors, StringNotAmongChoicesListsThem) {
   EXPECT_EQ(error_of(std::string("tool: {kind: scalpel}\n") + kOneTissue),
-            "s.yaml:1: tool.kind: 'scalpel' is not one of: sphere, needle");
+            "s.yaml:1: tool.kind: 'scalpel' is not one of: sphere, needle, blade");
   EXPECT_EQ(error_of("tissues:\n  - name: a\n    model: fem\n    patch: {}\n"),
             "s.yaml:3: tissues[0].model: 'fem' is not one of: charged_particles, mass_spring");
   EXPECT_EQ(error_of("tissues:\n  - name: a\n    model: mass_spring\n    patch: {}\n    material:\n"
@@ -95,9 +96,9 @@ TEST(SceneErrors, StringNotAmongChoicesListsThem) {
             "s.yaml:6: tissues[0].material.solver: 'cg' is not one of: desbrun, sparse, exact");
   // A prefix or a joined pair of choices is not a choice.
   EXPECT_EQ(error_of(std::string("tool: {kind: 'sphere|needle'}\n") + kOneTissue),
-            "s.yaml:1: tool.kind: 'sphere|needle' is not one of: sphere, needle");
+            "s.yaml:1: tool.kind: 'sphere|needle' is not one of: sphere, needle, blade");
   EXPECT_EQ(error_of(std::string("tool: {kind: sph}\n") + kOneTissue),
-            "s.yaml:1: tool.kind: 'sph' is not one of: sphere, needle");
+            "s.yaml:1: tool.kind: 'sph' is not one of: sphere, needle, blade");
 }
 
 TEST(SceneErrors, VectorMustBeThreeNumbers) {
@@ -214,7 +215,9 @@ TEST(SceneErrors, CrossFieldChecks) {
   EXPECT_EQ(error_of(std::string("duration: 0.01\ndt: 0.05\n") + kOneTissue),
             "s.yaml:2: dt: 0.05 s exceeds duration 0.01 s; expected dt <= duration");
   EXPECT_EQ(error_of(std::string("tool:\n  kind: needle\n  length: 0\n") + kOneTissue),
-            "s.yaml:3: tool.length: a needle needs a length > 0 m, got 0 m");
+            "s.yaml:3: tool.length: a needle needs a length > 0 m (its shaft), got 0 m");
+  EXPECT_EQ(error_of(std::string("tool:\n  kind: blade\n  length: 0\n") + kOneTissue),
+            "s.yaml:3: tool.length: a blade needs a length > 0 m (its cutting edge), got 0 m");
   EXPECT_EQ(error_of("tissues:\n  - name: a\n    patch: {spacing: 0.002}\n    material:\n"
                      "      max_separation: 0.002\n"),
             "s.yaml:5: tissues[0].material.max_separation: 0.002 m must exceed the patch spacing 0.002 m "
@@ -355,7 +358,7 @@ TEST(SceneExamples, LiverScenesResolveToTheProjectsLiverMesh) {
 TEST(SceneReference, ListsEveryKeyWithItsDefault) {
   const std::string md = palpate::scene_reference_markdown();
   EXPECT_NE(md.find("| `dt` | number | s | `0.001` | [1e-05, 0.1] |  | "), std::string::npos);
-  EXPECT_NE(md.find("| `kind` | string |  | `\"sphere\"` |  | `sphere, needle` | "), std::string::npos);
+  EXPECT_NE(md.find("| `kind` | string |  | `\"sphere\"` |  | `sphere, needle, blade` | "), std::string::npos);
   EXPECT_NE(md.find("| `axis` | [x, y, z] |  | `[0, -1, 0]` | [-1, 1] |"), std::string::npos);
   EXPECT_NE(md.find("| `name` | string |  | required |"), std::string::npos);
   EXPECT_NE(md.find("| `direction` | [x, y, z] |  | the previous waypoint's (`tool.axis` for the first) | [-1, 1] |"),

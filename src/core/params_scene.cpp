@@ -19,9 +19,9 @@ std::span<const Param<SceneDef>> param_table(const SceneDef*) {
 std::span<const Param<ToolDef>> param_table(const ToolDef*) {
   using D = ToolDef;
   static const Param<D> table[] = {
-      {"kind", &D::kind, 0, 0, "", "a sphere probe or a needle", "sphere|needle"},
+      {"kind", &D::kind, 0, 0, "", "a sphere probe, a needle, or a blade (a scalpel's edge)", "sphere|needle|blade"},
       {"radius", &D::radius, 1e-5, 0.05, "m", "sphere radius, or the needle shaft's radius"},
-      {"length", &D::length, 0.0, 0.5, "m", "needle shaft length, > 0 for a needle (a sphere ignores it)"},
+      {"length", &D::length, 0.0, 0.5, "m", "needle shaft length, or a blade's edge length; > 0 for both (a sphere ignores it)"},
       {"axis", &D::axis, -1.0, 1.0, "",
        "direction the needle points, handle to tip, device frame; non-zero, normalised on load"},
   };

@@ -69,9 +69,10 @@ ToolDef parse_tool(const Ctx& c, const YAML::Node& node, int line) {
   ToolDef tool;
   const Keys k = read_table(c, node, "tool", line, "tool", tool);
   tool.axis = unit_direction(c, tool.axis, k.line_or("axis", line), "tool.axis");
-  if (tool.kind == "needle" && !(tool.length > 0))
+  if ((tool.kind == "needle" || tool.kind == "blade") && !(tool.length > 0))
     c.fail(k.line_or("length", line), "tool.length",
-           "a needle needs a length > 0 m, got " + format_number(tool.length) + " m");
+           "a " + tool.kind + " needs a length > 0 m (" + (tool.kind == "blade" ? "its cutting edge" : "its shaft") +
+               "), got " + format_number(tool.length) + " m");
   return tool;
 }
 

@@ -26,6 +26,12 @@ struct ChargedMaterialDef {
   double thickness = 0.003;            // m, the layer's depth below its surface (shaft length in it)
   double friction_per_length = 100.0;  // N/m, kinetic friction per metre of shaft inside the layer
   double friction_presliding = 0.0003; // m, shaft travel over which friction builds (Dahl model)
+  // Cutting (docs/models/cutting.md): a blade pressed in past cutting_force parts the links its
+  // edge sweeps through; while it cuts, each metre of edge in the layer drags with
+  // cutting_drag_per_length; the wound's edges part under the layer's tension to wound_gap.
+  double cutting_force = 1.0;          // N, contact force at which a blade starts to cut
+  double cutting_drag_per_length = 170.0;  // N/m, drag per metre of edge in the layer while cutting
+  double wound_gap = 0.002;            // m, the width a cut opens to under the layer's tension
   double mesh_spacing = 0.001;         // m, particle spacing when the patch is laid on a mesh
   // The contact force: "indentation" (the law Φ(δ) of how far the sphere of influence reaches past
   // the rest surface: the same at any spacing and tick) or "coulomb" (the seed's own sum of the

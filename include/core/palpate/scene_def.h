@@ -17,9 +17,9 @@
 namespace palpate {
 
 struct ToolDef {
-  std::string kind = "sphere";  // sphere | needle
-  double radius = 0.001;        // m, sphere radius or needle shaft radius
-  double length = 0.08;         // m, needle shaft length (unused by a sphere)
+  std::string kind = "sphere";  // sphere | needle | blade
+  double radius = 0.001;        // m, sphere radius, needle shaft radius, or half a blade's thickness
+  double length = 0.08;         // m, needle shaft length or a blade's edge length (unused by a sphere)
   Vec3 axis = Vec3(0, -1, 0);   // unit direction the needle points, in the device frame
 };
 

@@ -24,6 +24,8 @@ struct SpringMaterialDef {
   double grasp_radius = 0.002;       // m beyond the tool's radius that grasping reaches
   double grasp_stiffness = 200.0;    // N/m per grasped vertex
   double grasp_release_time = 0.05;  // s over which a let-go grasp lets go (the jaws opening)
+  double cutting_force = 1.0;      // N, contact force at which a blade starts to cut (docs/models/cutting.md)
+  double cutting_drag_per_length = 170.0;  // N/m, drag per metre of edge in the organ while cutting
   std::string predictor = "";      // predictor file; "" = next to the output
   std::string predictor_policy = "load_or_compute";  // load_or_compute | require_file
   bool single_precision = false;   // per-tick predictor (and uniform all-pairs forces) in float

@@ -28,8 +28,12 @@ struct ToolState {
   Vec3 axis = Vec3(0, -1, 0);   // unit
   Vec3 velocity = Vec3::Zero(); // m/s
   double radius = 0.001;        // m
-  double length = 0.0;          // m, needle shaft length (0 for a sphere)
+  double length = 0.0;          // m, needle shaft length, or a blade's edge length (0 for a sphere)
   bool needle = false;
+  // A scalpel (docs/models/cutting.md): its cutting edge runs from tip − length·axis to tip. It
+  // presses like a probe; pressed in past a material's cutting_force, the tissue its edge sweeps
+  // through between two ticks is cut.
+  bool blade = false;
   bool grasp = false;           // grasping: a model that supports it pulls along with the tool
 };
 
