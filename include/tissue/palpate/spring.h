@@ -441,6 +441,72 @@ struct SpringBody {
 // (ContactComplianceSource, palpate/haptics.h) when dt is one step.
 std::unique_ptr<Tissue> make_spring_tissue(std::string name, SpringModel model);
 
+// Cutting (issue 37, docs/models/cutting.md). A blade removes springs and the tetrahedra that hold
+// them from a live model. Their forces are gone from the next step (stiffness, damping and predictor
+// weight set to zero in the model, the volume term's share of each removed tetrahedron taken off its
+// edges); the predictor's constant matrix A loses their weight, a low-rank change, and the step stays
+// exact to the cut network by a Woodbury correction computed off the haptic thread and installed
+// from the tick it is ready; once the correction holds more than refactor_rank edges a new factor
+// (the same ordering and pattern, new values) is built off the thread and swapped in. Until a
+// removal's correction is installed the step solves with the matrix that still holds the removed
+// weight: the removed springs pull no more, only their implicit damping lingers for those ticks.
+struct SpringCutOptions {
+  int refactor_rank = 48;     // edges in a correction past which a new factor is built
+  int max_rank = 256;         // the most edges one correction holds; beyond, the step waits for the factor
+  int max_removals = 65536;   // the most springs and tetrahedra removed in a run
+  // Deterministic installs (headless runs and replays): a removal's correction, and a new factor, take
+  // effect exactly this many install() calls after the removal that made them due, the haptic thread
+  // waiting for the worker if it is late. < 0: as soon as ready (real time).
+  int fixed_latency = -1;
+};
+
+// What a cutter has done (figures, summary).
+struct SpringCutStatus {
+  int removed_springs = 0;
+  int removed_tets = 0;
+  int pending = 0;               // removals whose correction is not installed yet
+  int correction_rank = 0;       // edges in the installed correction
+  int factors = 0;               // new factors installed
+  std::uint64_t installs = 0;    // corrections installed
+  double last_correction_ms = 0; // the worker's time for the last correction
+  double last_factor_ms = 0;     // and for the last new factor
+};
+
+class SpringCutter {
+ public:
+  // Cuts `model` (not owned; it must outlive the cutter and be stepped only by the thread that calls
+  // remove_* and install()). Starts the worker thread. The model must have a predictor (desbrun or
+  // sparse, built by build_spring_model) and no correction installed by another cutter.
+  static Result<std::unique_ptr<SpringCutter>> create(SpringModel& model, const SpringCutOptions& options = {});
+  ~SpringCutter();
+  SpringCutter(const SpringCutter&) = delete;
+  SpringCutter& operator=(const SpringCutter&) = delete;
+
+  // Stepping thread: remove springs (indices into network.springs) and every tetrahedron holding
+  // one; their forces are zero from the next step. Returns how many springs were newly removed
+  // (already removed, out-of-range ones and those past max_removals are skipped). noexcept, no
+  // allocation, no lock.
+  int remove_springs(std::span<const int> springs) noexcept;
+  // Stepping thread: remove tetrahedra (their volume term, and their share of their edges' predictor
+  // weight); their springs stay. Returns how many were newly removed.
+  int remove_tets(std::span<const int> tets) noexcept;
+  // Stepping thread, once per tick before the step: installs what the worker has ready (pointer
+  // swaps; the replaced data goes back to the worker to be freed). True when the step's solve changed.
+  bool install() noexcept;
+  // Waits until every removal so far is corrected and installs it (tests, benchmarks, the end of a
+  // headless run). Not for the haptic thread.
+  void settle();
+  SpringCutStatus status() const noexcept;
+  // Per spring / tetrahedron, 1 where removed (read on the stepping thread or while it is paused).
+  const std::vector<std::uint8_t>& removed_springs() const noexcept;
+  const std::vector<std::uint8_t>& removed_tets() const noexcept;
+
+ private:
+  struct Impl;
+  explicit SpringCutter(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
 // A network from a mesh file (tetrahedral formats by extension, else a surface; filled with
 // tetrahedra for tet_edges), read and filled through `services`.
 Result<SpringNetwork> spring_network_from_file(const MeshRef& mesh, const SpringNetworkOptions& options,

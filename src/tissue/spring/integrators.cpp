@@ -5,6 +5,7 @@
 
 #include "tissue/spring/forces.h"
 #include "tissue/spring/solve.h"
+#include "tissue/spring/cut.h"
 #include "tissue/spring/stages.h"
 
 #include <Eigen/SparseCholesky>
@@ -66,10 +67,15 @@ void add_predictor_jacobian(const SpringModel& model, const RowMat3d& y, const R
 }  // namespace
 
 void solve_predictor(const SpringModel& model, SpringState& s, const RowMat3d& b, RowMat3d& x) noexcept {
-  if (model.predictor.kind == SpringSolver::desbrun)
+  const PredictorCorrection* cut = model.solver->correction;  // a cut's low-rank correction (cut.h)
+  if (model.predictor.kind == SpringSolver::desbrun) {
     spring::solve_dense(model.predictor, model.solver->inverse_single, b, x, s.soa.data());
-  else if (model.solver->supernodes.empty()) spring::solve_columns(model.predictor, b, x, s.work);
-  else spring::solve_supernodal(model.predictor, model.solver->supernodes, b, x, s.soa.data());
+    if (cut && !cut->empty()) apply_dense(*cut, model.predictor.n, x.data());
+  } else if (model.solver->supernodes.empty()) {
+    spring::solve_columns(model.predictor, b, x, s.work);  // (a model built by hand: never cut)
+  } else {
+    spring::solve_supernodal(model.predictor, model.solver->supernodes, b, x, s.soa.data(), SolveIsa::best, cut);
+  }
 }
 
 // Backward Euler's damping on request (SpringModelOptions::exact_iterations): the predictor's Δv

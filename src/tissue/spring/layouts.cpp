@@ -10,7 +10,9 @@ namespace palpate {
 SpringSolverLayouts::SpringSolverLayouts() : layouts_(std::make_unique<spring::SolverLayouts>()) {}
 
 SpringSolverLayouts::SpringSolverLayouts(const SpringSolverLayouts& other)
-    : layouts_(other.layouts_ ? std::make_unique<spring::SolverLayouts>(*other.layouts_) : nullptr) {}
+    : layouts_(other.layouts_ ? std::make_unique<spring::SolverLayouts>(*other.layouts_) : nullptr) {
+  if (layouts_) layouts_->correction = nullptr;  // the cutter that owns it stays with the original
+}
 
 SpringSolverLayouts::SpringSolverLayouts(SpringSolverLayouts&& other) noexcept = default;
 

@@ -11,6 +11,8 @@
 
 namespace palpate::spring {
 
+struct PredictorCorrection;  // cut.h
+
 // The per-tick form of a sparse predictor's factor L (unit lower triangular, permuted), derived
 // from SpringPredictor when the model is built and never stored in files. Runs of consecutive
 // columns with (nearly) the same rows below them form a supernode (Liu, Ng & Peyton 1993; relaxed:
@@ -52,12 +54,17 @@ struct SpringSupernodes {
 // The solvers' own layouts of one model (SpringSolverLayouts, its opaque holder in palpate/spring.h).
 struct SolverLayouts {
   SpringSupernodes supernodes;          // sparse: the factor as the step uses it (built from predictor)
+  // A cut's low-rank correction of the predictor (cut.h), owned by the model's SpringCutter and
+  // installed by it on the stepping thread; null when nothing is cut or the factor is current. A
+  // copy of the model does not carry it (its cutter does not follow).
+  const PredictorCorrection* correction = nullptr;
   std::vector<float> inverse_single;    // desbrun with single_precision: (n x n) row-major A⁻¹ in float
   std::vector<float> rest_length_single;  // all-pairs with single_precision and uniform springs: (s) m
   // The volume pass's tetrahedra, four at a time (layout_volume_pass): in groups of four that share
   // no corner where a nearby tetrahedron allows it, taken in the mesh's order, then the last
   // (tets mod 4) one at a time. With SpringModel::volume_term:
   std::vector<double> volume_scale;     // (tets) κ / (36 V0) of each tetrahedron, in the pass's order, Pa/m³
+  std::vector<int> volume_lane;         // (tets) where each tetrahedron sits in the pass's order
   std::vector<int> volume_corners;      // (4 tets) 8 × its corners' vertex indices (offsets into the padded
                                         // layout): group g's corner c of lane l at [16g + 4c + l]; a
                                         // tetrahedron t of the last ones at [4t + c]

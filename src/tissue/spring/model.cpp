@@ -9,6 +9,7 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
+#include "tissue/spring/cut.h"
 #include "tissue/spring/forces.h"
 #include "tissue/spring/ordering.h"
 #include "tissue/spring/solve.h"
@@ -235,9 +236,68 @@ Result<SpringPredictor> spring::build_predictor(const SpringNetwork& net, const 
   return p;
 }
 
+Result<SpringPredictor> spring::refactor_predictor(const SpringNetwork& net, const SpringModelOptions& o,
+                                                   const SpringPredictor& pattern) {
+  if (pattern.kind == SpringSolver::desbrun) {
+    SpringModelOptions dense = o;
+    dense.solver = SpringSolver::desbrun;
+    auto p = build_predictor(net, dense);
+    if (!p) return p.error();
+    const size_t n = static_cast<size_t>(p->n);
+    double* W = p->inverse.data();  // exactly symmetric, as build_spring_model makes it
+    for (size_t i = 0; i < n; ++i)
+      for (size_t j = i + 1; j < n; ++j) W[i * n + j] = W[j * n + i] = 0.5 * (W[i * n + j] + W[j * n + i]);
+    return p;
+  }
+  if (pattern.kind != SpringSolver::sparse || pattern.n != static_cast<int>(net.size()))
+    return Error{"refactor: the pattern is not a sparse factor of this network"};
+  const int n = pattern.n;
+  const auto triplets = predictor_triplets(net, o);
+  std::vector<Eigen::Triplet<double>> pt;
+  pt.reserve(triplets.size());
+  for (const auto& t : triplets)
+    pt.emplace_back(pattern.perm[static_cast<size_t>(t.row())], pattern.perm[static_cast<size_t>(t.col())], t.value());
+  Eigen::SparseMatrix<double> PA(n, n);
+  PA.setFromTriplets(pt.begin(), pt.end());
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt;
+  ldlt.compute(PA);
+  if (ldlt.info() != Eigen::Success) return Error{"refactor: the predictor matrix could not be factorised"};
+  // The new L onto the old pattern: a network with fewer springs, in the same order, fills a subset
+  // of the old factor's entries; the others are stored as zeros, so the supernodes stay as they are.
+  SpringPredictor p;
+  p.kind = pattern.kind;
+  p.n = n;
+  p.perm = pattern.perm;
+  p.col_start = pattern.col_start;
+  p.row = pattern.row;
+  p.value.assign(pattern.value.size(), 0.0);
+  const Eigen::SparseMatrix<double>& L = ldlt.matrixL().nestedExpression();
+  for (int c = 0; c < n; ++c) {
+    int q = pattern.col_start[static_cast<size_t>(c)];
+    const int end = pattern.col_start[static_cast<size_t>(c) + 1];
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L, c); it; ++it) {
+      if (it.row() <= c) continue;
+      while (q < end && pattern.row[static_cast<size_t>(q)] < it.row()) ++q;
+      if (q == end || pattern.row[static_cast<size_t>(q)] != it.row()) {
+        if (it.value() != 0) return Error{"refactor: the new factor fills outside the old pattern"};
+        continue;
+      }
+      p.value[static_cast<size_t>(q)] = it.value();
+    }
+  }
+  p.inv_diag.resize(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const double d = ldlt.vectorD()[i];
+    if (!(d > 0)) return Error{"refactor: the predictor matrix is not positive definite"};
+    p.inv_diag[static_cast<size_t>(i)] = 1.0 / d;
+  }
+  return p;
+}
+
 void spring::layout_volume_pass(SpringModel& m, const std::vector<int>& order) {
   m.solver->volume_scale.clear();
   m.solver->volume_corners.clear();
+  m.solver->volume_lane.clear();
   if (!m.volume_term) return;
   const auto& tets = m.network.tets;
   const size_t T = tets.size();
@@ -279,8 +339,10 @@ void spring::layout_volume_pass(SpringModel& m, const std::vector<int>& order) {
   const size_t G = T / 4;
   m.solver->volume_corners.resize(4 * T);
   m.solver->volume_scale.resize(T);
+  m.solver->volume_lane.assign(T, -1);
   for (size_t j = 0; j < T; ++j) {
     const size_t t = static_cast<size_t>(seq[j]);
+    m.solver->volume_lane[t] = static_cast<int>(j);
     m.solver->volume_scale[j] = m.network.volume_modulus / (36 * m.network.rest_volume[t]);
     for (size_t c = 0; c < 4; ++c) {
       const size_t at = j < 4 * G ? 16 * (j / 4) + 4 * c + j % 4 : 4 * j + c;

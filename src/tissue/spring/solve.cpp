@@ -3,6 +3,7 @@
 #include "tissue/spring/solve.h"
 
 #include "tissue/spring/cpu.h"
+#include "tissue/spring/cut.h"
 #include "tissue/spring/supernode_layout.h"
 
 #include <algorithm>
@@ -54,7 +55,8 @@ typedef float vf8 __attribute__((vector_size(32)));
 // group's columns summed in registers side by side, then the diagonal tile is solved.
 template <typename T, bool Wide = false>
 __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, const T* values, const double* inv_diag,
-                                                  double* z4, double* g, size_t m) noexcept {
+                                                  double* z4, double* g, size_t m,
+                                                  const PredictorCorrection* mid) noexcept {
   const int S = static_cast<int>(sn.first_column.size()) - 1;
   const int* fc = sn.first_column.data();
   const int* rs = sn.row_start.data();
@@ -164,6 +166,7 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
     y *= vd4{d, d, d, d};
     PALPATE_STORE4(at(i), y);
   }
+  if (mid) apply_middle(*mid, z4);  // a cut's correction, between the sweeps (cut.h)
   for (int k = S - 1; k >= 0; --k) {
     const int f = fc[k];
     const size_t w = static_cast<size_t>(fc[k + 1] - f), r = static_cast<size_t>(rs[k + 1] - rs[k]);
@@ -296,21 +299,23 @@ __attribute__((always_inline)) inline void sweeps(const SpringSupernodes& sn, co
 #define PALPATE_V4 __attribute__((target("arch=x86-64-v4,prefer-vector-width=512")))
 #endif
 PALPATE_V4 void sweeps_double_impl_v4(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g,
-                                      size_t m) noexcept {
-  sweeps<double, true>(sn, sn.values.data(), inv_diag, z4, g, m);
+                                      size_t m, const PredictorCorrection* mid) noexcept {
+  sweeps<double, true>(sn, sn.values.data(), inv_diag, z4, g, m, mid);
 }
 PALPATE_V4 void sweeps_single_impl_v4(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g,
-                                      size_t m) noexcept {
-  sweeps<float, true>(sn, sn.values_single.data(), inv_diag, z4, g, m);
+                                      size_t m, const PredictorCorrection* mid) noexcept {
+  sweeps<float, true>(sn, sn.values_single.data(), inv_diag, z4, g, m, mid);
 }
 #undef PALPATE_V4
 
 PALPATE_TWICE(sweeps_double_impl,
-              (const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m),
-              { sweeps(sn, sn.values.data(), inv_diag, z4, g, m); })
+              (const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m,
+               const PredictorCorrection* mid),
+              { sweeps(sn, sn.values.data(), inv_diag, z4, g, m, mid); })
 PALPATE_TWICE(sweeps_single_impl,
-              (const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m),
-              { sweeps(sn, sn.values_single.data(), inv_diag, z4, g, m); })
+              (const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m,
+               const PredictorCorrection* mid),
+              { sweeps(sn, sn.values_single.data(), inv_diag, z4, g, m, mid); })
 
 // x's rows (n x 3) from rows perm[i] of z4: whole four-double rows stored three doubles apart,
 // each overwriting the last one's padding (the last row by itself, x ends there).
@@ -329,34 +334,35 @@ SolveIsa choose(SolveIsa most) noexcept {
 }
 
 void sweeps_double(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m,
-                   SolveIsa isa) noexcept {
+                   SolveIsa isa, const PredictorCorrection* mid) noexcept {
   switch (choose(isa)) {
-    case SolveIsa::x86_64_v4: sweeps_double_impl_v4(sn, inv_diag, z4, g, m); break;
-    case SolveIsa::x86_64_v3: sweeps_double_impl_v3(sn, inv_diag, z4, g, m); break;
-    default: sweeps_double_impl_base(sn, inv_diag, z4, g, m); break;
+    case SolveIsa::x86_64_v4: sweeps_double_impl_v4(sn, inv_diag, z4, g, m, mid); break;
+    case SolveIsa::x86_64_v3: sweeps_double_impl_v3(sn, inv_diag, z4, g, m, mid); break;
+    default: sweeps_double_impl_base(sn, inv_diag, z4, g, m, mid); break;
   }
 }
 
 void sweeps_single(const SpringSupernodes& sn, const double* inv_diag, double* z4, double* g, size_t m,
-                   SolveIsa isa) noexcept {
+                   SolveIsa isa, const PredictorCorrection* mid) noexcept {
   switch (choose(isa)) {
-    case SolveIsa::x86_64_v4: sweeps_single_impl_v4(sn, inv_diag, z4, g, m); break;
-    case SolveIsa::x86_64_v3: sweeps_single_impl_v3(sn, inv_diag, z4, g, m); break;
-    default: sweeps_single_impl_base(sn, inv_diag, z4, g, m); break;
+    case SolveIsa::x86_64_v4: sweeps_single_impl_v4(sn, inv_diag, z4, g, m, mid); break;
+    case SolveIsa::x86_64_v3: sweeps_single_impl_v3(sn, inv_diag, z4, g, m, mid); break;
+    default: sweeps_single_impl_base(sn, inv_diag, z4, g, m, mid); break;
   }
 }
 
 }  // namespace
 
 void solve_supernodal_permuted(const SpringPredictor& p, const SpringSupernodes& sn, double* z4, double* g,
-                               SolveIsa isa) noexcept {
+                               SolveIsa isa, const PredictorCorrection* correction) noexcept {
   const size_t m = round8(static_cast<size_t>(sn.max_height));
-  if (sn.values_single.empty()) sweeps_double(sn, p.inv_diag.data(), z4, g, m, isa);
-  else sweeps_single(sn, p.inv_diag.data(), z4, g, m, isa);
+  const PredictorCorrection* mid = correction && !correction->empty() ? correction : nullptr;
+  if (sn.values_single.empty()) sweeps_double(sn, p.inv_diag.data(), z4, g, m, isa, mid);
+  else sweeps_single(sn, p.inv_diag.data(), z4, g, m, isa, mid);
 }
 
 void solve_supernodal(const SpringPredictor& p, const SpringSupernodes& sn, const RowMat3d& b, RowMat3d& x,
-                      double* scratch, SolveIsa isa) noexcept {
+                      double* scratch, SolveIsa isa, const PredictorCorrection* correction) noexcept {
   const int n = p.n;
   double* z4 = scratch;
   const int* perm = p.perm.data();
@@ -364,7 +370,7 @@ void solve_supernodal(const SpringPredictor& p, const SpringSupernodes& sn, cons
     double* z = z4 + 4 * static_cast<size_t>(perm[i]);
     z[0] = b(i, 0); z[1] = b(i, 1); z[2] = b(i, 2); z[3] = 0;
   }
-  solve_supernodal_permuted(p, sn, z4, scratch + 4 * static_cast<size_t>(n), isa);
+  solve_supernodal_permuted(p, sn, z4, scratch + 4 * static_cast<size_t>(n), isa, correction);
   unpermute_rows(p, z4, x.data());
 }
 

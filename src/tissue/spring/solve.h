@@ -6,6 +6,8 @@
 
 namespace palpate::spring {
 
+struct PredictorCorrection;  // cut.h
+
 // The builds of the sweeps: any x86-64 (SSE2), x86-64-v3 (AVX2 + FMA), x86-64-v4 (AVX-512).
 enum class SolveIsa { x86_64 = 1, x86_64_v3 = 3, x86_64_v4 = 4, best = 4 };
 
@@ -43,15 +45,18 @@ size_t supernodal_scratch(const SpringPredictor& predictor, const SpringSupernod
 // the way in (the error bound is in tests/test_spring_solve.cpp). scratch holds
 // supernodal_scratch() doubles. b and x may not alias.
 // isa caps the instruction set of the sweeps (the tests run every build; the step takes the best).
+// correction (optional): a cut's low-rank correction (cut.h), applied between the sweeps.
 void solve_supernodal(const SpringPredictor& predictor, const SpringSupernodes& supernodes, const RowMat3d& b,
-                      RowMat3d& x, double* scratch, SolveIsa isa = SolveIsa::best) noexcept;
+                      RowMat3d& x, double* scratch, SolveIsa isa = SolveIsa::best,
+                      const PredictorCorrection* correction = nullptr) noexcept;
 
 // The same solve on a right-hand side already permuted into z4 (4n: row perm[i] holds b's row i as
 // x, y, z, 0), in place: on return z4 holds the solution in the same order. g holds
 // 3·max_height rounded up to 8 doubles (the block being solved). For callers that build the
 // permuted right-hand side in the same pass as something else (the step).
 void solve_supernodal_permuted(const SpringPredictor& predictor, const SpringSupernodes& supernodes, double* z4,
-                               double* g, SolveIsa isa = SolveIsa::best) noexcept;
+                               double* g, SolveIsa isa = SolveIsa::best,
+                               const PredictorCorrection* correction = nullptr) noexcept;
 
 // x (n x 3, row-major) from z4 in the solve's permuted layout: x's row i is z4's row perm[i].
 void unpermute_rows(const SpringPredictor& predictor, const double* z4, double* x) noexcept;

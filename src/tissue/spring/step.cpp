@@ -120,7 +120,8 @@ void step_sparse_fused(const SpringModel& model, SpringState& s, const ToolState
   fused_rhs(n, model.options.dt, model.options.point_damping, model.predictor.perm.data(), model.anchored.data(), fr,
             work, s.v.data(), z4);
   // Solve, in place, and Δv gathered back.
-  solve_supernodal_permuted(model.predictor, model.solver->supernodes, z4, z4 + 4 * n);
+  solve_supernodal_permuted(model.predictor, model.solver->supernodes, z4, z4 + 4 * n, SolveIsa::best,
+                            model.solver->correction);
   unpermute_rows(model.predictor, z4, s.dv.data());
   correct(model, s, ext_torque, momentum);
   advance(model, s, s.dv);

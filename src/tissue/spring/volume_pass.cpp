@@ -34,6 +34,7 @@ double add_volume_forces(const SpringNetwork& net, const double* x, size_t strid
   const size_t T = net.tets.size();
   for (size_t t = 0; t < T; ++t) {
     const auto& q = net.tets[t];
+    if (q[0] == q[1]) continue;  // removed by a cut (cut.cpp collapses it onto one corner)
     const TetGradients<double> g =
         tet_gradients(x + stride * static_cast<size_t>(q[0]), x + stride * static_cast<size_t>(q[1]),
                       x + stride * static_cast<size_t>(q[2]), x + stride * static_cast<size_t>(q[3]));
