@@ -172,6 +172,7 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
       return Error{"haptic loop: tissue '" + lt.tissue->name() + "': physics_dt must be >= 0 s"};
     Impl::Slot sl;
     sl.tissue = lt.tissue;
+    lt.tissue->set_real_time(settings.realtime);  // off-thread work (a cut's correction) waits for no tick
     sl.figure_offset = m.columns.size();
     for (const auto& f : lt.tissue->figure_names()) m.columns.push_back(lt.tissue->name() + "." + f);
     sl.figure_count = m.columns.size() - sl.figure_offset;

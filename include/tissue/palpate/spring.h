@@ -497,6 +497,9 @@ class SpringCutter {
   // headless run). Not for the haptic thread.
   void settle();
   SpringCutStatus status() const noexcept;
+  // Switch between fixed-latency installs (latency >= 1 ticks) and as-soon-as-ready ones (latency < 0),
+  // SpringCutOptions::fixed_latency. Stepping thread, between ticks.
+  void set_fixed_latency(int latency) noexcept;
   // Per spring / tetrahedron, 1 where removed (read on the stepping thread or while it is paused).
   const std::vector<std::uint8_t>& removed_springs() const noexcept;
   const std::vector<std::uint8_t>& removed_tets() const noexcept;

@@ -84,6 +84,10 @@ class Tissue {
   virtual void snapshot(TissueSnapshot& snap) const = 0;
   // Back to the rest state.
   virtual void reset() noexcept = 0;
+  // Whether a wall-clock paced loop steps this tissue (HapticLoop::create says so): then work a model
+  // does off the stepping thread (a cut's correction, a new factor) takes effect when ready and the
+  // step never waits for it; otherwise (headless runs, replays) at fixed ticks, so runs repeat exactly.
+  virtual void set_real_time(bool real_time) noexcept { (void)real_time; }
   // Layers stacked in a scene press on each other: a tissue may be pushed by the tissues listed
   // before it (scenes list them from the outside in). `above` are those tissues, live; a model
   // without the coupling ignores them. Not called while the haptic loop steps the tissues.

@@ -142,7 +142,8 @@ void surface_contact(const SpringModel& model, SpringState& s, const ToolState& 
   // A needle's shaft: the segment [tip − length·axis, tip] of radius r (a capsule), each triangle
   // pressed from the shaft's point closest to it. A sphere (or a needle of no length): the tip only.
   const double axis_norm = tool.axis.norm();
-  const bool shaft = tool.needle && tool.length > 0 && axis_norm > 0;
+  // (A blade's edge is pressed along its length as a needle's shaft is.)
+  const bool shaft = (tool.needle || tool.blade) && tool.length > 0 && axis_norm > 0;
   const Vec3 back = shaft ? Vec3(c - (tool.length / axis_norm) * tool.axis) : c;
   const Vec3 tool_lo = c.cwiseMin(back), tool_hi = c.cwiseMax(back);
   // A shaft that was in contact may have been pushed behind the faces it presses (the depth is not

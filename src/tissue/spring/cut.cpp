@@ -245,6 +245,14 @@ struct SpringCutter::Impl {
   std::vector<int> face_slot, slot_face;       // (F), (capacity F)
   std::vector<int> spring_face_start, spring_face;
   std::vector<int> vertex_faces;               // boundary faces on each vertex
+  // Edge-manifold repair: the faces on each spring (CSR), and a queue of springs whose boundary
+  // faces changed. An edge with more than two boundary faces (two fans of tetrahedra meeting only at
+  // it) has all its tetrahedra removed, and the edges that change by it are checked in turn.
+  std::vector<int> edge_face_start, edge_face;
+  std::vector<int> face_edge;                  // (3F) the springs of each face's edges, −1 when none
+  std::vector<int> queue;                      // (capacity S)
+  std::vector<std::uint8_t> queued;
+  bool repairing = false;
 
   // Stepping thread.
   std::vector<std::uint8_t> spring_removed, tet_removed;
@@ -285,10 +293,42 @@ struct SpringCutter::Impl {
   }
   bool room() const noexcept { return logged.load(std::memory_order_relaxed) < static_cast<int>(log.size()); }
 
+  void check_edges_of(int f) noexcept {
+    if (face_edge.empty()) return;
+    for (int k = 0; k < 3; ++k) {
+      const int e = face_edge[3 * static_cast<size_t>(f) + static_cast<size_t>(k)];
+      if (e >= 0 && !queued[static_cast<size_t>(e)] && queue.size() < queue.capacity()) {
+        queued[static_cast<size_t>(e)] = 1;
+        queue.push_back(e);
+      }
+    }
+  }
+  int boundary_faces_on(int e) const noexcept {
+    int count = 0;
+    for (int q = edge_face_start[static_cast<size_t>(e)]; q < edge_face_start[static_cast<size_t>(e) + 1]; ++q)
+      count += face_slot[static_cast<size_t>(edge_face[static_cast<size_t>(q)])] >= 0 ? 1 : 0;
+    return count;
+  }
+  // Remove the tetrahedra on every edge the last removals left with more than two boundary faces.
+  void repair() noexcept {
+    if (repairing || face_edge.empty()) return;
+    repairing = true;
+    for (size_t i = 0; i < queue.size(); ++i) {
+      const int e = queue[i];
+      queued[static_cast<size_t>(e)] = 0;
+      if (boundary_faces_on(e) <= 2) continue;
+      for (int q = spring_tet_start[static_cast<size_t>(e)]; q < spring_tet_start[static_cast<size_t>(e) + 1]; ++q)
+        remove_tet(spring_tet[static_cast<size_t>(q)]);
+    }
+    queue.clear();
+    repairing = false;
+  }
+
   // The drawn surface: a face leaves or joins the triangles (no allocation: capacity reserved).
   void drop_face(int f) noexcept {
     const int slot = face_slot[static_cast<size_t>(f)];
     if (slot < 0) return;
+    check_edges_of(f);
     auto& tris = model.network.triangles;
     for (int v : tris[static_cast<size_t>(slot)]) --vertex_faces[static_cast<size_t>(v)];
     const int last = static_cast<int>(tris.size()) - 1;
@@ -303,6 +343,7 @@ struct SpringCutter::Impl {
     if (face_slot[static_cast<size_t>(f)] >= 0 || tris.size() == tris.capacity()) return;
     face_slot[static_cast<size_t>(f)] = static_cast<int>(tris.size());
     slot_face[tris.size()] = f;
+    check_edges_of(f);
     tris.push_back(tri);
     for (int v : tri)
       if (vertex_faces[static_cast<size_t>(v)]++ == 0 && model.surface_vertices.size() < model.surface_vertices.capacity())
@@ -363,6 +404,7 @@ struct SpringCutter::Impl {
     model.uniform_damping = false;
     log_removal(0, e);
     ++stat.removed_springs;
+    repair();
     return true;
   }
 
@@ -459,6 +501,33 @@ struct SpringCutter::Impl {
         spring_face_start[e + 1] = spring_face_start[e] + static_cast<int>(faces_of[e].size());
         spring_face.insert(spring_face.end(), faces_of[e].begin(), faces_of[e].end());
       }
+    }
+    if (!net.tets.empty()) {
+      std::unordered_map<std::uint64_t, int> spring_of;
+      for (size_t e = 0; e < net.springs.size(); ++e)
+        spring_of.emplace((static_cast<std::uint64_t>(net.springs[e][0]) << 32) | static_cast<std::uint32_t>(net.springs[e][1]),
+                          static_cast<int>(e));
+      face_edge.assign(3 * F, -1);
+      edge_face_start.assign(net.springs.size() + 1, 0);
+      for (size_t f = 0; f < F; ++f)
+        for (int k = 0; k < 3; ++k) {
+          const int a = face_tri[f][0][static_cast<size_t>(k)], b = face_tri[f][0][static_cast<size_t>((k + 1) % 3)];
+          const auto it = spring_of.find((static_cast<std::uint64_t>(std::min(a, b)) << 32) |
+                                         static_cast<std::uint32_t>(std::max(a, b)));
+          if (it == spring_of.end()) continue;
+          face_edge[3 * f + static_cast<size_t>(k)] = it->second;
+          ++edge_face_start[static_cast<size_t>(it->second) + 1];
+        }
+      for (size_t e = 0; e < net.springs.size(); ++e) edge_face_start[e + 1] += edge_face_start[e];
+      edge_face.resize(static_cast<size_t>(edge_face_start.back()));
+      std::vector<int> fill(edge_face_start.begin(), edge_face_start.end() - 1);
+      for (size_t f = 0; f < F; ++f)
+        for (int k = 0; k < 3; ++k) {
+          const int e = face_edge[3 * f + static_cast<size_t>(k)];
+          if (e >= 0) edge_face[static_cast<size_t>(fill[static_cast<size_t>(e)]++)] = static_cast<int>(f);
+        }
+      queue.reserve(net.springs.size());
+      queued.assign(net.springs.size(), 0);
     }
     tris.reserve(F);
     model.surface_vertices.reserve(net.size());
@@ -650,7 +719,7 @@ Result<std::unique_ptr<SpringCutter>> SpringCutter::create(SpringModel& model, c
   m.tet_removed.assign(T, 0);
   m.setup_surface();
   m.log.resize(static_cast<size_t>(options.max_removals));
-  m.counts.assign(static_cast<size_t>(std::max(options.fixed_latency, 1)), 0);
+  m.counts.assign(static_cast<size_t>(std::max(options.fixed_latency, 8)), 0);
   // The worker's copy: weights as the predictor was built with.
   m.base.rest = net.rest;
   m.base.mass = net.mass;
@@ -678,6 +747,7 @@ int SpringCutter::remove_springs(std::span<const int> springs) noexcept {
 int SpringCutter::remove_tets(std::span<const int> tets) noexcept {
   int count = 0;
   for (int t : tets) count += impl_->remove_tet(t) ? 1 : 0;
+  impl_->repair();
   return count;
 }
 
@@ -725,6 +795,14 @@ void SpringCutter::settle() {
 }
 
 SpringCutStatus SpringCutter::status() const noexcept { return impl_->stat; }
+
+void SpringCutter::set_fixed_latency(int latency) noexcept {
+  Impl& m = *impl_;
+  // (The ring has room for the latency it was made with; a longer one is clamped to it.)
+  m.options.fixed_latency = latency < 1 ? -1 : std::min(latency, static_cast<int>(m.counts.size()));
+  std::fill(m.counts.begin(), m.counts.end(), m.installed_coverage);
+  m.calls = 0;
+}
 const std::vector<std::uint8_t>& SpringCutter::removed_springs() const noexcept { return impl_->spring_removed; }
 const std::vector<std::uint8_t>& SpringCutter::removed_tets() const noexcept { return impl_->tet_removed; }
 

@@ -4,6 +4,7 @@
 #include <palpate/spring.h>
 
 #include "tissue/factory.h"
+#include "tissue/spring/blade.h"
 #include "tissue/spring/shapes.h"
 
 #include <array>
@@ -20,6 +21,12 @@ std::string where_of(const SceneDef& scene, const TissueDef& t) {
   return scene.file.string() + ":" + std::to_string(t.line) + ": tissue '" + t.name + "'";
 }
 
+std::string format_number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", x);
+  return buf;
+}
+
 void translate(RowMat3d& V, const Vec3& by) {
   for (Eigen::Index i = 0; i < V.rows(); ++i) V.row(i) += by.transpose();
 }
@@ -28,6 +35,16 @@ void translate(RowMat3d& V, const Vec3& by) {
 const std::string kFigureNames[] = {"force_N",          "force_x_N",        "force_y_N",      "force_z_N",
                                     "max_displacement_m", "kinetic_energy_J", "anchor_force_N", "contacts",
                                     "resets"};
+// With a blade in the scene, then: springs and tetrahedra removed, removals awaiting their correction,
+// the correction's rank, new factors installed, whether the blade cuts now, teleports refused.
+const std::string kCutFigureNames[] = {"force_N",          "force_x_N",        "force_y_N",      "force_z_N",
+                                       "max_displacement_m", "kinetic_energy_J", "anchor_force_N", "contacts",
+                                       "resets",           "cut_springs",      "cut_tets",       "cut_pending",
+                                       "cut_rank",         "cut_factors",      "cutting",        "blade_jumps"};
+
+// Headless runs and replays install a cut's correction this many ticks after the cut, waiting for
+// the worker if need be, so they repeat exactly (docs/models/cutting.md); a real-time loop does not wait.
+constexpr int kFixedLatency = 2;
 
 class SpringTissue final : public Tissue, public ContactComplianceSource {
  public:
@@ -40,23 +57,46 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
 
   const std::string& name() const override { return name_; }
 
+  // A blade may cut this organ (the scene's tool is a blade): the cutter's worker thread starts here.
+  Status enable_cutting(const spring::BladeSettings& blade, const SpringCutOptions& options) {
+    auto cutter = SpringCutter::create(model_, options);
+    if (!cutter) return cutter.error();
+    cutter_ = std::move(*cutter);
+    blade_ = std::make_unique<spring::BladeCut>(model_, *cutter_, blade);
+    return {};
+  }
+
   Vec3 step(const ToolState& tool, double dt) noexcept override {
     // The predictor is built for one step length: a longer tick runs several steps.
     const long substeps = std::max(1L, std::lround(dt / step_length(model_.options)));
     Vec3 force = Vec3::Zero();
     failed_ = false;
+    if (cutter_) {
+      // What the worker has ready takes effect from this tick; then the blade cuts what its edge
+      // swept through since the last one (the removed springs pull no more in this tick's step).
+      cutter_->install();
+      if (blade_ && blade_->cut(state_, tool, dt) > 0) {
+        const SpringCutStatus st = cutter_->status();
+        push_event({tool.time, "cut", index_, blade_->depth(), static_cast<double>(st.removed_springs)});
+      }
+    }
     for (long k = 0; k < substeps; ++k) {
       if (!palpate::step(model_, state_, &tool)) {
         push_event({tool.time, "reset", index_, 0.0, 0.0});
         failed_ = true;
+        if (blade_) blade_->reset();
         return Vec3::Zero();
       }
       force = state_.tool_force;
     }
+    if (blade_) force = blade_->felt(force, tool, dt);
     return force;
   }
 
   bool last_step_failed() const noexcept override { return failed_; }
+  void set_real_time(bool real_time) noexcept override {
+    if (cutter_) cutter_->set_fixed_latency(real_time ? -1 : kFixedLatency);
+  }
   ContactComplianceSource* contact_compliance() noexcept override { return this; }
 
   // The compliant patch for a multi-rate loop (issue 24): only when one step() is one step of the
@@ -73,7 +113,9 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
     }
   }
 
-  std::span<const std::string> figure_names() const override { return kFigureNames; }
+  std::span<const std::string> figure_names() const override {
+    return cutter_ ? std::span<const std::string>(kCutFigureNames) : std::span<const std::string>(kFigureNames);
+  }
 
   void figures(std::span<double> out) const noexcept override {
     const double values[] = {state_.tool_force.norm(),
@@ -86,6 +128,14 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
                              static_cast<double>(state_.contacts),
                              static_cast<double>(state_.resets)};
     for (size_t i = 0; i < out.size() && i < std::size(values); ++i) out[i] = values[i];
+    if (cutter_ && out.size() >= std::size(kCutFigureNames)) {
+      const SpringCutStatus st = cutter_->status();
+      const double cut[] = {static_cast<double>(st.removed_springs), static_cast<double>(st.removed_tets),
+                            static_cast<double>(st.pending), static_cast<double>(st.correction_rank),
+                            static_cast<double>(st.factors), blade_ && blade_->cutting() ? 1.0 : 0.0,
+                            static_cast<double>(blade_ ? blade_->jumps() : 0)};
+      std::copy(std::begin(cut), std::end(cut), out.begin() + static_cast<std::ptrdiff_t>(std::size(kFigureNames)));
+    }
   }
 
   size_t drain_events(std::span<TissueEvent> out) noexcept override {
@@ -104,7 +154,14 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
     for (Eigen::Index i = 0; i < n; ++i) snap.points[static_cast<size_t>(i)] = state_.x.row(i).transpose().cast<float>();
     snap.rows_cols.clear();
     snap.triangles = model_.network.triangles;
-    snap.links.assign(model_.network.springs.begin(), model_.network.springs.end());
+    if (cutter_) {
+      const auto& gone = cutter_->removed_springs();
+      snap.links.clear();
+      for (size_t e = 0; e < model_.network.springs.size(); ++e)
+        if (!gone[e]) snap.links.push_back(model_.network.springs[e]);
+    } else {
+      snap.links.assign(model_.network.springs.begin(), model_.network.springs.end());
+    }
     // Velocities, and the contact's load on the vertices it holds (zero elsewhere).
     snap.velocities.resize(static_cast<size_t>(n));
     for (Eigen::Index i = 0; i < n; ++i) snap.velocities[static_cast<size_t>(i)] = state_.v.row(i).transpose().cast<float>();
@@ -118,7 +175,11 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
 
   const SpringBody* spring_body() const noexcept override { return &body_; }
 
-  void reset() noexcept override { palpate::reset(model_, state_); }
+  // Back to rest; a cut stays cut (the wound is topology, not state).
+  void reset() noexcept override {
+    palpate::reset(model_, state_);
+    if (blade_) blade_->reset();
+  }
 
   const SpringModel& model() const { return model_; }
 
@@ -139,6 +200,8 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
   SpringBody body_;  // points at model_ and state_ (the tissue is never copied nor moved)
   bool failed_ = false;  // the last step() reset the state
   std::unique_ptr<SpringCompliance> compliance_;
+  std::unique_ptr<SpringCutter> cutter_;      // the scene's tool is a blade (declared after model_: dies first)
+  std::unique_ptr<spring::BladeCut> blade_;
   std::array<TissueEvent, 64> events_{};
   size_t head_ = 0, count_ = 0;
 };
@@ -258,12 +321,34 @@ Result<std::unique_ptr<Tissue>> make_spring_tissue(const SceneDef& scene, int in
   auto setup = spring_setup(scene, index, services);
   if (!setup) return setup.error();
   const TissueDef& t = scene.tissues.at(static_cast<size_t>(index));
+  const bool blade = scene.tool.kind == "blade";
+  if (blade && t.spring.physics_rate > 0)
+    return Error{where_of(scene, t) + ": material.physics_rate: a blade cannot cut a multi-rate organ yet (its "
+                 "haptic-rate compliance would not follow the cut); set physics_rate: 0"};
+  if (blade && setup->options.solver == SpringSolver::exact)
+    return Error{where_of(scene, t) + ": material.solver: a blade cuts organs with a predictor (desbrun or sparse), "
+                 "not the exact solver"};
+  if (blade && t.spring.contact == "surface" && !(t.spring.contact_stiffness * scene.tool.radius > t.spring.cutting_force))
+    return Error{where_of(scene, t) + ": material.contact_stiffness: " + format_number(t.spring.contact_stiffness) +
+                 " N/m holds the blade (radius " + format_number(scene.tool.radius) + " m) to at most " +
+                 format_number(t.spring.contact_stiffness * scene.tool.radius) +
+                 " N before its edge slips through the surface, short of cutting_force " +
+                 format_number(t.spring.cutting_force) + " N; expected contact_stiffness > cutting_force / tool.radius"};
   auto model = build_spring_model(std::move(setup->network), setup->options, setup->predictor, setup->policy, services);
   if (!model) return Error{where_of(scene, t) + ": " + model.error().message};
   // On the multi-rate path the step's contact uses the exact diagonal of A⁻¹, so that it agrees with
   // the exact compliance the haptic thread renders between its steps (issue 24).
   if (t.spring.physics_rate > 0) (void)use_exact_contact_compliance(*model);
-  return std::unique_ptr<Tissue>(std::make_unique<SpringTissue>(t.name, index, std::move(*model)));
+  auto tissue = std::make_unique<SpringTissue>(t.name, index, std::move(*model));
+  if (blade) {
+    spring::BladeSettings bs;
+    bs.cutting_force = t.spring.cutting_force;
+    bs.drag_per_length = t.spring.cutting_drag_per_length;
+    SpringCutOptions co;
+    co.fixed_latency = kFixedLatency;
+    if (Status st = tissue->enable_cutting(bs, co); !st) return Error{where_of(scene, t) + ": " + st.error().message};
+  }
+  return std::unique_ptr<Tissue>(std::move(tissue));
 }
 
 }  // namespace palpate
