@@ -2,17 +2,22 @@
 // (ToolState::blade, its length, its axis turned by the device as a needle's); a tick whose edge
 // jumps farther than blade_max_speed · dt, or whose pose could not be read, presses without cutting
 // and a jump is counted (SafetyCounters::blade_teleport, the `blade_teleport` event); an edge of no
-// length is refused when the loop is built.
+// length is refused when the loop is built; a tissue stepped at its own rate never misses a no-cut tick.
 #include <palpate/haptics.h>
 
 #include "haptics/doubles.h"
+#include "haptics/multirate.h"
+#include "haptics/pacing.h"
 #include "run_csv_rows.h"
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <thread>
+#include <vector>
 
 namespace fs = std::filesystem;
 using palpate::Quat;
@@ -171,4 +176,54 @@ TEST(LoopBlade, AnEdgeOfNoLengthOrANonsenseSpeedLimitIsRefused) {
   // A needle or a sphere is not a blade, whatever the speed limit.
   s.tool.kind = "needle";
   EXPECT_TRUE(palpate::HapticLoop::create(dev, {{&rec, 0.0}}, s).ok());
+}
+
+// A tissue stepped at its own rate sees one tick in ten here (physics_dt 10 ms, headless: inline):
+// a jump on a tick between its steps still reaches it as a blade that does not cut, on the next
+// step, so that step's sweep never spans the jump; the steps before and after cut.
+TEST(LoopBlade, AMultiRateTissueSeesTheJumpOnItsNextStepNotASweepAcrossIt) {
+  ToolRecorder rec(100);
+  PoseDevice dev(&glitchy, kDt);  // jumps at ticks 200 and 201 (out and back), turns at 400
+  auto loop = palpate::HapticLoop::create(dev, {{&rec, 0.01}}, blade_settings());
+  ASSERT_TRUE(loop.ok()) << loop.error().message;
+  (*loop)->run_headless(500);
+  ASSERT_EQ(rec.seen.size(), 50u);  // ticks 0, 10, ..., 490
+  for (size_t i = 0; i < rec.seen.size(); ++i) {
+    const long tick = long(10 * i);
+    // Ticks 200–201 fall in the step of tick 200 (gated itself) and before that of 210; the turn at
+    // 400 is the step's own tick.
+    const bool no_cut = tick == 200 || tick == 210 || tick == 400;
+    EXPECT_EQ(rec.seen[i].blade, !no_cut) << "the step at tick " << tick;
+  }
+  EXPECT_EQ((*loop)->stats().safety.blade_teleport, 3u);
+}
+
+// The same on a physics thread: the haptic thread hands a tool over every tick, the physics thread
+// reads whichever is newest when it steps. The one tick the blade jumped must still reach it: the
+// first step that sees the tool on the far side of the jump sees a blade that does not cut.
+TEST(LoopBlade, AThreadedTissueNeverSweepsAcrossAJumpItDidNotSee) {
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    ToolRecorder rec(10000);
+    palpate::PhysicsWorker w(rec, 0, 0.005, kDt, 1000.0, /*threaded=*/true);
+    w.start();
+    ToolState t;
+    t.blade = true, t.length = kEdge, t.radius = 0.0002;
+    Vec3 f;
+    std::vector<double> figs;
+    auto tick = [&](const Vec3& tip, bool blade) {
+      t.tip = tip, t.blade = blade;
+      (void)w.render(t, palpate::monotonic_ns(), 0.0, f, figs);
+      std::this_thread::sleep_for(std::chrono::microseconds(1000));
+    };
+    for (int k = 0; k < 30; ++k) tick(Vec3(0.0001 * k, 0, 0), true);
+    tick(Vec3(0.05, 0, 0), false);  // the jump: one tick, not cutting
+    for (int k = 0; k < 40; ++k) tick(Vec3(0.05 + 0.0001 * k, 0, 0), true);
+    w.stop();
+    size_t first_far = 0;
+    while (first_far < rec.seen.size() && rec.seen[first_far].tip.x() < 0.04) ++first_far;
+    ASSERT_LT(first_far, rec.seen.size()) << "the physics thread stepped after the jump";
+    EXPECT_FALSE(rec.seen[first_far].blade) << "attempt " << attempt << ": step " << first_far;
+    // And it cuts again afterwards.
+    EXPECT_TRUE(rec.seen.back().blade);
+  }
 }
