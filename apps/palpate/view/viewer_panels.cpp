@@ -155,7 +155,7 @@ void Viewer::draw_panels() {
     ImGui::TextDisabled("right drag: press the tool in, wheel: depth");
     if (scene_.tool.kind == "needle") ImGui::TextDisabled("ctrl + left drag: tilt the needle about the hole");
     if (blade()) {
-      ImGui::TextDisabled("blade: right drag presses it in point first and draws it along");
+      ImGui::TextDisabled("blade: in point first; move while pressed to cut along");
       ImGui::TextDisabled("ctrl + left drag: tilt the blade about where it went in");
     }
     ImGui::TextDisabled("R: untilt  F12 or S: screenshot  Esc: quit");
@@ -169,7 +169,7 @@ void Viewer::draw_panels() {
     if (blade()) {
       // The edge (heel → tip) and whether the loop has had to stop it cutting (docs/haptics.md).
       const Vec3 a = needle_axis(scene_axis(), feeder_->orientation());
-      ImGui::Text("blade %.0f mm edge (%.2f, %.2f, %.2f), %.1f deg from tool.axis", 1e3 * scene_.tool.length, a.x(),
+      ImGui::Text("blade %.0f mm (%.2f, %.2f, %.2f), tilted %.1f deg", 1e3 * scene_.tool.length, a.x(),
                   a.y(), a.z(), std::acos(std::clamp(a.dot(scene_axis()), -1.0, 1.0)) * 180 / M_PI);
       if (loop_) {
         const std::uint64_t jumps = loop_->stats().safety.blade_teleport;
