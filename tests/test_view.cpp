@@ -514,3 +514,16 @@ TEST_F(View, TheMouseDrivesABladeItsEdgeIsDrawnAndItTiltsLikeTheNeedle) {
   ASSERT_EQ(std::sscanf(t.out.c_str() + ta, "blade_axis: %lf %lf %lf", &ax, &ay, &az), 3);
   EXPECT_GT(std::acos(std::clamp(Vec3(ax, ay, az).dot(axis0), -1.0, 1.0)) * 180 / M_PI, 5.0) << t.out;
 }
+
+// Issue 37: a blade's scripted stroke (tests/data/scenes/blade-patch.yaml: in 2 mm, then drawn 20 mm
+// along the patch) plays in the viewer through the same pose feeder as the mouse: played to 1.0 s
+// the blade is where the script has it, mid-stroke and pressing, and the loop met no jump on the way.
+TEST_F(View, ABladesScriptedStrokePlaysInTheViewerWithoutAJump) {
+  Ran r = view(std::string(PALPATE_TEST_DATA_DIR) + "/scenes/blade-patch.yaml --frames 2 --exit --no-panels --play-to 1.0"
+               " --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NEAR(number_after(r.out, "script_time:"), 1.0, 1e-9) << r.out;
+  EXPECT_LT((exit_tool(r.out) - Vec3(-0.01 + 0.7 * 0.02, -0.002, 0)).norm(), 1e-5) << r.out;
+  EXPECT_GT(number_after(r.out, "force_N:"), 0.01) << r.out;
+  EXPECT_EQ(number_after(r.out, "blade_teleport:"), 0.0) << r.out;
+}
