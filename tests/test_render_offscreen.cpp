@@ -332,5 +332,5 @@ TEST(RenderOffscreen, RejectsBadScenesWithClearErrors) {
   s.tool = tool;
   auto d = palpate::render_rgba(s);
   ASSERT_FALSE(d.ok());
-  EXPECT_EQ(d.error().message, "render: tool kind 'scalpel'; expected sphere or needle");
+  EXPECT_EQ(d.error().message, "render: tool kind 'scalpel'; expected sphere, needle or blade");
 }

@@ -455,3 +455,75 @@ TEST(ViewCli, BadProbeIsNamedAndHelpListsTheFlags) {
     EXPECT_NE(r.out.find(flag), std::string::npos) << flag;
   EXPECT_EQ(r.out.find("{false}"), std::string::npos) << "a flag's value printed in the help:\n" << r.out;
 }
+
+// Issue 37: the mouse drives a blade as it does the needle. A scripted press (--probe) at the
+// window's centre takes the blade point first along its edge (leaning 30°, so the force arrow drawn
+// straight up from the tip does not cover it) 2 mm into a charged sheet: it presses (a force pushes
+// it back), its edge is drawn in its own cyan where it projects above the sheet, the loop met no
+// jump (`blade_teleport: 0`); a ctrl + left drag (--tilt) turns the blade as the needle.
+TEST_F(View, TheMouseDrivesABladeItsEdgeIsDrawnAndItTiltsLikeTheNeedle) {
+  const fs::path file = dir_ / "blade.yaml";
+  std::ofstream(file) << "name: view-blade\nduration: 1\ndt: 0.001\noutput: out\n"
+                         "tool: {kind: blade, radius: 0.0002, length: 0.02, axis: [0.5, -0.866025, 0]}\n"
+                         "device:\n  kind: scripted\n  waypoints:\n    - {t: 0, position: [0, 0.01, 0]}\n"
+                         "camera: {position: [0, 0.05, 0.045], target: [0, 0, 0], fov: 40, width: 400, height: 300}\n"
+                         "tissues:\n  - name: skin\n    model: charged_particles\n"
+                         "    patch: {shape: flat, width: 0.04, height: 0.04, spacing: 0.001}\n"
+                         "    material: {max_displacement: 0.004, puncture_force: 3.0, particle_radius: 0.0005}\n";
+  const fs::path shot = dir_ / "blade.png";
+  const Ran r = view(file.string() + " --frames 5 --exit --no-panels --probe 200,150,0.002 --overrun-margin 0.05 "
+                     "--screenshot " + shot.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(number_after(r.out, "blade_teleport:"), 0.0) << r.out;
+  EXPECT_GT(number_after(r.out, "force_N:"), 0.01) << "the blade presses\n" << r.out;
+  const size_t at = r.out.find("blade_axis: ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  double ax = NAN, ay = NAN, az = NAN;
+  ASSERT_EQ(std::sscanf(r.out.c_str() + at, "blade_axis: %lf %lf %lf", &ax, &ay, &az), 3);
+  const Vec3 axis0 = Vec3(0.5, -0.866025, 0).normalized(), axis(ax, ay, az);
+  EXPECT_LT((axis - axis0).norm(), 1e-4) << r.out;
+  // Gone in along its edge, point first: 2 mm past the surface point under the pixel.
+  const Vec3 tip = exit_tool(r.out);
+  ASSERT_TRUE(tip.allFinite()) << r.out;
+  EXPECT_LT(tip.y(), -0.001) << r.out;
+  EXPECT_LT(tip.cross(axis0).norm(), 1e-4) << "along the edge from the centre\n" << r.out;
+  // The edge's cyan where the edge projects: above the sheet, from the surface up to the heel.
+  const Png png = load_png(shot);
+  ASSERT_EQ(png.width, 400) << r.out;
+  auto cyan_near = [&](const Eigen::Vector2d& p) {
+    for (int dy = -3; dy <= 3; ++dy)
+      for (int dx = -3; dx <= 3; ++dx) {
+        const int x = int(std::lround(p.x())) + dx, y = int(std::lround(p.y())) + dy;
+        if (x < 0 || y < 0 || x >= png.width || y >= png.height) continue;
+        const unsigned char* q = png.at(x, y);
+        if (q[2] > 150 && q[1] > 130 && q[0] < 0.6 * q[2]) return true;
+      }
+    return false;
+  };
+  int seen = 0;
+  for (double f : {0.3, 0.5, 0.7, 0.9}) {
+    const Vec3 on = tip - f * 0.02 * axis0;
+    seen += cyan_near(pixel_of(Vec3(0, 0.05, 0.045), Vec3::Zero(), 40, 400, 300, on));
+  }
+  EXPECT_GE(seen, 3) << "the cutting edge is drawn along its projection";
+  // Tilted above the sheet: about its tip, more than 5° off the scene's axis.
+  const Ran t = view(file.string() + " --frames 2 --exit --no-panels --tilt 20,0 --overrun-margin 0.05");
+  ASSERT_EQ(t.code, 0) << t.out;
+  const size_t ta = t.out.find("blade_axis: ");
+  ASSERT_NE(ta, std::string::npos) << t.out;
+  ASSERT_EQ(std::sscanf(t.out.c_str() + ta, "blade_axis: %lf %lf %lf", &ax, &ay, &az), 3);
+  EXPECT_GT(std::acos(std::clamp(Vec3(ax, ay, az).dot(axis0), -1.0, 1.0)) * 180 / M_PI, 5.0) << t.out;
+}
+
+// Issue 37: a blade's scripted stroke (tests/data/scenes/blade-patch.yaml: in 2 mm, then drawn 20 mm
+// along the patch) plays in the viewer through the same pose feeder as the mouse: played to 1.0 s
+// the blade is where the script has it, mid-stroke and pressing, and the loop met no jump on the way.
+TEST_F(View, ABladesScriptedStrokePlaysInTheViewerWithoutAJump) {
+  Ran r = view(std::string(PALPATE_TEST_DATA_DIR) + "/scenes/blade-patch.yaml --frames 2 --exit --no-panels --play-to 1.0"
+               " --overrun-margin 0.05 --width 640 --height 480");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NEAR(number_after(r.out, "script_time:"), 1.0, 1e-9) << r.out;
+  EXPECT_LT((exit_tool(r.out) - Vec3(-0.01 + 0.7 * 0.02, -0.002, 0)).norm(), 1e-5) << r.out;
+  EXPECT_GT(number_after(r.out, "force_N:"), 0.01) << r.out;
+  EXPECT_EQ(number_after(r.out, "blade_teleport:"), 0.0) << r.out;
+}

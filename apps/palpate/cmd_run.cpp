@@ -168,6 +168,8 @@ int run_command(const RunArgs& a) {
     if (c.zeroed() > 0)
       fmt::print("safety     non-finite {}, step failed {}, overrun {}, stalled {}, device failed {}\n",
                  c.non_finite, c.step_failed, c.overrun, c.stalled, c.device_failed);
+    if (c.blade_teleport > 0)
+      fmt::print("safety     blade teleported {} ticks (pressed without cutting)\n", c.blade_teleport);
     if (s.recorder_dropped > 0) fmt::print("recorder   {} rows dropped\n", s.recorder_dropped);
     for (const LoopPhysicsStats& p : s.physics) {
       const std::string name = p.tissue >= 0 && size_t(p.tissue) < s.tissue_names.size() ? s.tissue_names[size_t(p.tissue)] : "?";

@@ -61,6 +61,7 @@ void HapticLoop::Impl::ToolSlot::publish_counters() noexcept {
   non_finite.set(c.non_finite), step_failed.set(c.step_failed), clamped.set(c.clamped);
   rate_limited.set(c.rate_limited), overrun.set(c.overrun), stalled.set(c.stalled);
   device_failed.set(c.device_failed);
+  blade_teleport.set(blade_teleports);
 }
 
 SafetyCounters HapticLoop::Impl::ToolSlot::counters() const noexcept {
@@ -68,6 +69,7 @@ SafetyCounters HapticLoop::Impl::ToolSlot::counters() const noexcept {
   c.non_finite = non_finite.get(), c.step_failed = step_failed.get(), c.clamped = clamped.get();
   c.rate_limited = rate_limited.get(), c.overrun = overrun.get(), c.stalled = stalled.get();
   c.device_failed = device_failed.get();
+  c.blade_teleport = blade_teleport.get();
   return c;
 }
 
@@ -143,7 +145,14 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
   m.coupling = make_coupling(device.limits(), settings.proxy_mass, settings.coupling_stiffness);
   m.tool.radius = settings.tool.radius;
   m.tool.needle = settings.tool.kind == "needle";
-  m.tool.length = m.tool.needle ? settings.tool.length : 0.0;
+  m.blade_tool = settings.tool.kind == "blade";
+  m.tool.blade = m.blade_tool;
+  m.tool.length = m.tool.needle || m.blade_tool ? settings.tool.length : 0.0;
+  // A blade is an edge: one of no length would cut along a point (the scene loader refuses it too).
+  if (m.blade_tool && !(settings.tool.length > 0 && std::isfinite(settings.tool.length)))
+    return Error{"haptic loop: a blade tool needs an edge length > 0 m (tool.length)"};
+  if (m.blade_tool && !(settings.blade_max_speed > 0 && std::isfinite(settings.blade_max_speed)))
+    return Error{"haptic loop: blade_max_speed must be a positive number of m/s"};
   if (settings.tool.axis.allFinite() && settings.tool.axis.norm() > 0)
     m.scene_axis = settings.tool.axis.normalized();
   m.tool.axis = m.scene_axis;

@@ -81,6 +81,9 @@ struct HapticLoop::Impl {
     size_t col = 0;               // its first CSV column (tools 1..)
     RelaxedDouble max_force, fx, fy, fz, px, py, pz;
     RelaxedCount non_finite, step_failed, clamped, rate_limited, overrun, stalled, device_failed;
+    RelaxedCount blade_teleport;
+    std::uint64_t blade_teleports = 0;  // the loop's own count (the filter's are in `safety`)
+    std::uint32_t loop_events = 0;      // SafetyEvent bits the loop set this tick (kEventBladeTeleport)
     SampleExchange sample;
     ToolSlot(const LoopTool& t, double ramp) : def(t), safety(t.device->limits(), ramp) {}
     void publish_counters() noexcept;
@@ -127,6 +130,11 @@ struct HapticLoop::Impl {
   ToolState seen;  // the tool as the tissues meet it: mapped to rest by the tools that deform them
   OutcomeState outcome;
   Vec3 scene_axis = Vec3(0, -1, 0);  // unit, the needle's direction at identity (device frame)
+  // A blade tool (settings.tool.kind "blade"): where its edge's ends were last tick, to tell a hand's
+  // stroke from a teleport (LoopSettings::blade_max_speed).
+  bool blade_tool = false;
+  bool blade_prev_valid = false;
+  Vec3 blade_prev_tip = Vec3::Zero(), blade_prev_heel = Vec3::Zero();
   std::uint64_t k = 0;               // ticks done
   bool headless_now = false;
 
@@ -147,6 +155,7 @@ struct HapticLoop::Impl {
   // duration in StageClock counts (0 when settings.time_stages is off).
   std::uint64_t tick(std::int64_t deadline_ns) noexcept;
   void read_devices(TickState& ts) noexcept;
+  void gate_blade() noexcept;
   void step_tissues(TickState& ts) noexcept;
   void render_forces(TickState& ts) noexcept;
   void watchdog(TickState& ts) noexcept;

@@ -112,14 +112,32 @@ void PhysicsWorker::physics_main() noexcept {
 
 TickFault PhysicsWorker::render(const ToolState& tool, std::int64_t now_ns, double stall_timeout,
                                 Vec3& force, std::span<double> figures) noexcept {
+  // A tick on which the loop stopped a blade cutting (ToolState::blade false: it jumped, or its pose
+  // was held) must reach the physics step, which sees only one tick in physics_dt/dt: otherwise that
+  // step would sweep the edge from its last pose across the jump. So the tool handed over stays
+  // blade = false from that tick until a step has surely read it: inline, the next step; threaded,
+  // until the snapshot sequence is two past the one seen that tick (the step after next started
+  // after that tick's hand-over, which it therefore read or a later no-cut one).
+  if (!tool.blade) hold_blade_ = true, hold_restart_ = true;
   if (threaded_) {
-    tool_in_.write_slot() = tool;
+    ToolState& w = tool_in_.write_slot();
+    w = tool;
+    if (hold_blade_) w.blade = false;
     tool_in_.publish();
   } else if (tick_++ % every_ == 0) {
-    physics_step(tool);
+    ToolState t = tool;
+    if (hold_blade_) t.blade = false;
+    hold_blade_ = false;
+    physics_step(t);
   }
   out_.update();
   const PhysicsSnapshot& s = out_.read();
+  if (threaded_ && hold_blade_) {
+    if (hold_restart_)
+      hold_until_seq_ = s.seq + 2, hold_restart_ = false;
+    else if (s.seq >= hold_until_seq_)
+      hold_blade_ = false;
+  }
   const size_t nf = std::min(figures.size(), s.figures.size());
   std::copy_n(s.figures.begin(), nf, figures.begin());
   force.setZero();

@@ -94,6 +94,9 @@ class PhysicsWorker {
   ContactComplianceSource* compliance_ = nullptr;
   PatchScratch patch_scratch_;            // haptic thread
   Mat3 rendered_jacobian_ = Mat3::Zero();  // haptic thread: the last tick's ∂F/∂x
+  bool hold_blade_ = false;               // haptic thread: hand the tool over with blade = false
+  bool hold_restart_ = false;             //   (render(): a no-cut tick not yet seen by a step)
+  std::uint64_t hold_until_seq_ = 0;      //   threaded: until the snapshot sequence reaches this
   std::uint64_t rendered_seq_ = 0;        // haptic thread: the snapshot last rendered, and how many
   std::uint64_t ticks_on_snapshot_ = 0;   // ticks it has been rendered for
   std::atomic<std::uint64_t> patch_ticks_{0}, patch_fallbacks_{0};  // haptic thread writes

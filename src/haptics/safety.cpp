@@ -8,8 +8,8 @@
 namespace palpate {
 
 void safety_event_names(std::uint32_t mask, char* out, size_t size) noexcept {
-  static constexpr const char* kNames[] = {"non_finite", "step_failed", "clamped", "rate_limited",
-                                           "overrun",    "stalled",     "device_failed"};
+  static constexpr const char* kNames[] = {"non_finite", "step_failed", "clamped",       "rate_limited",
+                                           "overrun",    "stalled",     "device_failed", "blade_teleport"};
   if (size == 0) return;
   out[0] = '\0';
   size_t used = 0;

@@ -85,6 +85,34 @@ void HapticLoop::Impl::read_devices(TickState& ts) noexcept {
   // a device without orientation gives the same ticks as a fixed axis, bit for bit.
   tool.axis = needle_axis(scene_axis, n.state.orientation);
   tool.grasp = (n.state.buttons & 1u) != 0;
+  if (blade_tool) gate_blade();
+}
+
+// A blade cuts only on a tick the hand could have made: either end of its edge moving farther than
+// blade_max_speed · dt since the last tick (a device's glitch, a tracking jump, the proxy restarted
+// at the device), a held pose (a failed or NaN read) or a non-finite edge gives the tissues a blade
+// that presses but does not cut (ToolState::blade false) this tick; a jump is counted
+// (SafetyCounters::blade_teleport, the `blade_teleport` event). The force is not zeroed: the tool
+// still presses, and the tissues' force of it is as safe as a probe's.
+void HapticLoop::Impl::gate_blade() noexcept {
+  ToolSlot& n = needle();
+  n.loop_events = 0;
+  const Vec3 heel = tool.tip - tool.length * tool.axis;
+  if (!tool.tip.allFinite() || !heel.allFinite()) {  // cannot happen after read_pose; never cut on it
+    tool.blade = false;
+    blade_prev_valid = false;
+    return;
+  }
+  const double reach = s.blade_max_speed * s.dt;
+  const bool jumped = blade_prev_valid && !((tool.tip - blade_prev_tip).norm() <= reach &&
+                                            (heel - blade_prev_heel).norm() <= reach);
+  if (jumped) {
+    ++n.blade_teleports;
+    n.loop_events |= kEventBladeTeleport;
+  }
+  tool.blade = !jumped && n.read_fault == TickFault::none;
+  blade_prev_tip = tool.tip, blade_prev_heel = heel;
+  blade_prev_valid = true;
 }
 
 // Where the shaft enters the skin at rest (the outcome's skin tissue): the point of the segment
@@ -202,7 +230,7 @@ void HapticLoop::Impl::record(TickState& ts) noexcept {
   r[kQw] = st.orientation.w(), r[kQx] = st.orientation.x();
   r[kQy] = st.orientation.y(), r[kQz] = st.orientation.z();
   r[kButtons] = double(st.buttons);
-  r[kEvents] = double(n.safety.last_events());
+  r[kEvents] = double(n.safety.last_events() | n.loop_events);
   if (proxy_col) {
     r[proxy_col] = proxy.position.x(), r[proxy_col + 1] = proxy.position.y();
     r[proxy_col + 2] = proxy.position.z();

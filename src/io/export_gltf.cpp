@@ -9,6 +9,8 @@
 // channels at the same times.
 #include <palpate/export.h>
 
+#include "core/blade_shape.h"
+
 #include <tiny_gltf.h>
 
 #include <algorithm>
@@ -89,7 +91,17 @@ int add_material(tinygltf::Model& m, const std::string& name, const std::array<f
 // A tool's shape in its own frame (tip at the origin), as points and triangles.
 void tool_shape(const Tool& t, std::vector<float>& p, std::vector<std::uint32_t>& tri) {
   const int seg = 16;
-  if (t.shape == "needle") {
+  if (t.shape == "blade") {
+    // The scalpel the frames draw: the flat blade on its edge (tip at the origin, heel `length` back
+    // along −axis) and its handle behind the heel.
+    BladeMesh m;
+    const Vec3 axis = t.axis.norm() > 0 && t.axis.allFinite() ? t.axis : Vec3(0, -1, 0);
+    const BladeShape s = blade_shape(Vec3::Zero(), axis, std::max(t.length, 1e-4), std::max(t.radius, 1e-5));
+    append_blade(m, s);
+    append_blade_handle(m, s);
+    p = std::move(m.positions);
+    tri = std::move(m.triangles);
+  } else if (t.shape == "needle") {
     // A cylinder from the tip back along −axis for `length`.
     const Vec3 a = t.axis.normalized();
     const Vec3 u = (std::abs(a.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(a).normalized();

@@ -80,12 +80,14 @@ Status check_scene(const RenderScene& s) {
   }
   if (s.tool) {
     const RenderTool& t = *s.tool;
-    if (t.kind != "sphere" && t.kind != "needle")
-      return Error{"render: tool kind '" + t.kind + "'; expected sphere or needle"};
+    if (t.kind != "sphere" && t.kind != "needle" && t.kind != "blade")
+      return Error{"render: tool kind '" + t.kind + "'; expected sphere, needle or blade"};
     if (!(t.radius > 0) || !std::isfinite(t.radius) || !t.tip.allFinite())
       return Error{"render: tool radius " + std::to_string(t.radius) + " m at a finite tip; expected > 0"};
-    if (t.kind == "needle" && (!(t.length > 0) || !std::isfinite(t.length) || !(t.axis.norm() > 0)))
-      return Error{"render: needle length " + std::to_string(t.length) + " m along a non-zero axis; expected > 0"};
+    if ((t.kind == "needle" || t.kind == "blade") &&
+        (!(t.length > 0) || !std::isfinite(t.length) || !(t.axis.norm() > 0) || !t.axis.allFinite()))
+      return Error{"render: " + t.kind + " length " + std::to_string(t.length) +
+                   " m along a non-zero axis; expected > 0"};
   }
   if (s.force && (!s.force->origin.allFinite() || !s.force->force.allFinite() ||
                   !std::isfinite(s.force->length_per_newton)))

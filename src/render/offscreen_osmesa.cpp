@@ -8,10 +8,14 @@
 
 #include "render/offscreen.h"
 
+#include "core/blade_shape.h"
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -294,6 +298,12 @@ void depth_range(const RenderScene& s, const CameraFrame& f, double& near, doubl
   if (s.tool) {
     see(s.tool->tip, s.tool->radius);
     if (s.tool->kind == "needle") see(s.tool->tip - s.tool->length * s.tool->axis.normalized(), s.tool->radius);
+    if (s.tool->kind == "blade") {
+      const BladeShape b = blade_shape(s.tool->tip, s.tool->axis, s.tool->length, s.tool->radius);
+      const double pad = b.depth + b.handle_width;
+      see(b.heel(), pad);
+      see(b.heel() - b.handle_length * b.axis, pad);
+    }
   }
   if (s.force) {
     see(s.force->origin, 0);
@@ -357,17 +367,30 @@ Result<Image> draw_offscreen(const RenderScene& scene) {
   glDisable(GL_POLYGON_OFFSET_FILL);
 
   Mesh tool;
+  std::optional<std::array<Vec3f, 4>> blade_edge;  // two segments heel → tip, drawn with the lines below
   if (scene.tool) {
     const RenderTool& t = *scene.tool;
     if (t.kind == "sphere") {
       add_sphere(tool, t.tip, t.radius);
+    } else if (t.kind == "blade") {
+      // The scalpel (core/blade_shape.h): the blade in steel, its handle darker, and its cutting
+      // edge drawn over the blade as a bright line so the part that cuts is the part one sees.
+      const BladeShape b = blade_shape(t.tip, t.axis, t.length, t.radius);
+      BladeMesh blade, handle;
+      append_blade(blade, b);
+      append_blade_handle(handle, b);
+      draw_mesh(blade.positions, blade.normals, blade.triangles, t.color);
+      draw_mesh(handle.positions, handle.normals, handle.triangles, 0.45f * t.color);
+      Vec3 edge[4];
+      blade_edge_lines(b, edge);
+      blade_edge = {edge[0].cast<float>(), edge[1].cast<float>(), edge[2].cast<float>(), edge[3].cast<float>()};
     } else {
       const Vec3 axis = t.axis.normalized();
       const double bevel = std::min(4 * t.radius, 0.5 * t.length);  // the sharpened tip
       add_frustum(tool, t.tip - t.length * axis, t.tip - bevel * axis, t.radius, t.radius);
       add_frustum(tool, t.tip - bevel * axis, t.tip, t.radius, 0.0);
     }
-    draw_mesh(tool.positions, tool.normals, tool.triangles, t.color);
+    if (!tool.triangles.empty()) draw_mesh(tool.positions, tool.normals, tool.triangles, t.color);
   }
   draw_translucent(scene, frame);
 
@@ -390,6 +413,12 @@ Result<Image> draw_offscreen(const RenderScene& scene) {
     glVertexPointer(3, GL_FLOAT, sizeof(Vec3f), l.points.data());
     // Segment indices are validated non-negative ints, which GL reads as unsigned.
     glDrawElements(GL_LINES, GLsizei(2 * l.segments.size()), GL_UNSIGNED_INT, l.segments.data());
+  }
+  if (blade_edge) {  // the cutting edge, bright against the steel
+    glColor3f(1.0f, 0.92f, 0.55f);
+    glLineWidth(2.0f * float(ss));
+    glVertexPointer(3, GL_FLOAT, sizeof(Vec3f), blade_edge->data());
+    glDrawArrays(GL_LINES, 0, 4);
   }
   glEnable(GL_POINT_SPRITE);
   glUniform1i(round_points, 1);

@@ -144,10 +144,13 @@ Result<std::unique_ptr<RunExporter>> RunExporter::open(Simulation& sim, const st
   }
   for (const SimulationTool& t : sim.tools()) {
     e->tool_names_.push_back(t.name);
-    std::string kind = t.role == ToolRole::ultrasound_probe ? "box" : scene.tool.kind == "needle" ? "needle" : "sphere";
+    std::string kind = t.role == ToolRole::ultrasound_probe ? "box"
+                       : t.role == ToolRole::needle       ? "needle"
+                       : t.role == ToolRole::blade        ? "blade"
+                                                          : "sphere";
     e->tool_kinds_.push_back(kind);
     e->tool_radius_.push_back(scene.tool.radius);
-    e->tool_length_.push_back(kind == "needle" ? scene.tool.length : 0.0);
+    e->tool_length_.push_back(kind == "needle" || kind == "blade" ? scene.tool.length : 0.0);
     if (e->gltf_) {
       if (kind == "box" && scene.probe) {
         const ProbeDef& pd = *scene.probe;
@@ -235,7 +238,8 @@ ExportGrid RunExporter::tissue_grid(size_t i, const TissueSnapshot& snap, double
 }
 
 Status RunExporter::write_tools(size_t k, double time, std::span<const ExportToolSample> tools) {
-  // A needle as its shaft (tip, then the hub), a sphere or the probe as a point.
+  // A needle as its shaft (tip, then the hub), a blade as its cutting edge (tip, then the heel), a
+  // sphere or the probe as a point.
   ExportGrid g;
   ExportArray disp{"displacement", 3, false, {}}, vel{"velocity", 3, false, {}}, force{"force", 3, false, {}};
   ExportArray punct{"punctured", 1, true, {}}, role{"role", 1, true, {}};
@@ -244,7 +248,7 @@ Status RunExporter::write_tools(size_t k, double time, std::span<const ExportToo
     if (!s.valid) continue;
     if (!tool_seen_[t]) tool_first_[t] = s.position, tool_seen_[t] = true;
     std::vector<Vec3> pts = {s.position};
-    if (tool_kinds_[t] == "needle" && tool_length_[t] > 0) pts.push_back(s.position - s.axis.normalized() * tool_length_[t]);
+    if ((tool_kinds_[t] == "needle" || tool_kinds_[t] == "blade") && tool_length_[t] > 0) pts.push_back(s.position - s.axis.normalized() * tool_length_[t]);
     const std::int64_t base = std::int64_t(g.point_count());
     for (const Vec3& q : pts) {
       g.points.insert(g.points.end(), {q.x(), q.y(), q.z()});

@@ -451,7 +451,8 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
   j["safety"] = {{"non_finite", sc.non_finite}, {"step_failed", sc.step_failed},
                  {"clamped", sc.clamped}, {"rate_limited", sc.rate_limited},
                  {"overrun", sc.overrun}, {"stalled", sc.stalled},
-                 {"device_failed", sc.device_failed}, {"max_force_N", dev.limits().max_force}};
+                 {"device_failed", sc.device_failed}, {"blade_teleport", sc.blade_teleport},
+                 {"max_force_N", dev.limits().max_force}};
   // The probe (the other hand's tool): its largest force and its own safety filter's counters.
   summary.tools = st.tools;
   for (const LoopToolStats& t : st.tools) {

@@ -15,6 +15,7 @@ const char* tool_role_name(ToolRole role) noexcept {
   switch (role) {
     case ToolRole::sphere: return "sphere";
     case ToolRole::needle: return "needle";
+    case ToolRole::blade: return "blade";
     case ToolRole::ultrasound_probe: return "ultrasound_probe";
   }
   return "?";
@@ -160,7 +161,10 @@ Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene_in, 
     Vec3 axis;
   };
   // The definitions the tools keep pointing at are the Simulation's own copy of the scene.
-  std::vector<Want> wants = {{"tool", "device", scene.tool.kind == "needle" ? ToolRole::needle : ToolRole::sphere,
+  const ToolRole role = scene.tool.kind == "needle" ? ToolRole::needle
+                        : scene.tool.kind == "blade" ? ToolRole::blade
+                                                     : ToolRole::sphere;
+  std::vector<Want> wants = {{"tool", "device", role,
                               &m.scene.device, scene.tool.axis}};
   if (probe) wants.push_back({"probe", "probe.device", ToolRole::ultrasound_probe, &m.scene.probe->device, scene.probe->axis});
   for (const Want& w : wants) {

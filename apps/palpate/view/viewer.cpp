@@ -133,8 +133,8 @@ void Viewer::handle_key(int key) {
     case GLFW_KEY_S:
       screenshot_key_ = true;
       break;
-    case GLFW_KEY_R: {  // the needle back to the scene's tool.axis, about the skin hole once in
-      const std::optional<Vec3> hole = scene_.tool.kind == "needle" ? skin_hole() : std::nullopt;
+    case GLFW_KEY_R: {  // the needle (blade) back to the scene's tool.axis, about the skin hole once in
+      const std::optional<Vec3> hole = axial_tool() ? skin_hole() : std::nullopt;
       feeder_->set_orientation_target(Quat::Identity());
       if (hole) feeder_->set_pivot(*hole, (feeder_->position() - *hole).norm(), scene_axis());
       break;
@@ -289,7 +289,7 @@ void Viewer::frame_input(int width, int height) {
 }
 
 Vec3 Viewer::press_direction(const Vec3& ray) const {
-  if (scene_.tool.kind != "needle") return ray;
+  if (!axial_tool()) return ray;
   return needle_axis(scene_axis(), feeder_->orientation_target());
 }
 
@@ -617,6 +617,11 @@ void detail::Viewer::report_exit(int frames) {
   if (scene_.tool.kind == "needle") {
     const Vec3 a = needle_axis(scene_axis(), feeder_->orientation());
     fmt::print("needle_axis: {:.6f} {:.6f} {:.6f}\n", a.x(), a.y(), a.z());
+  }
+  if (blade()) {  // the edge as the mouse left it (heel → tip), and the ticks it jumped (not cut)
+    const Vec3 a = needle_axis(scene_axis(), feeder_->orientation());
+    fmt::print("blade_axis: {:.6f} {:.6f} {:.6f}\n", a.x(), a.y(), a.z());
+    fmt::print("blade_teleport: {}\n", loop_ ? loop_->stats().safety.blade_teleport : 0);
   }
   if (player_) fmt::print("script_time: {:.3f}\n", player_->time());
   if (probe_feeder_) {

@@ -54,6 +54,7 @@ using Clock = std::chrono::steady_clock;
 inline const Vec3f kBackground(0.12f, 0.13f, 0.16f);
 inline const Vec3f kToolColor(0.72f, 0.74f, 0.78f);
 inline const Vec3f kArrowColor(1.0f, 0.8f, 0.1f);
+inline const Vec3f kBladeEdgeColor(0.35f, 0.95f, 1.0f);  // a blade's cutting edge: bright cyan on the steel
 inline const Vec3f kParticleColor(0.15f, 0.35f, 0.9f);
 inline const Vec3f kGridColor(0.2f, 0.9f, 0.4f);
 inline const Vec3f kLinkColor(0.85f, 0.85f, 0.9f);
@@ -121,10 +122,13 @@ class Viewer {
     return (probe_feeder_->orientation() * scene_.probe->axis).normalized();
   }
   double tool_radius() const { return scene_.tool.radius; }
-  // The needle's direction in the device frame (the scene's tool.axis), unit.
+  // A tool with a direction the mouse presses along and tilts (a needle, a blade): not a sphere.
+  bool axial_tool() const { return scene_.tool.kind == "needle" || scene_.tool.kind == "blade"; }
+  bool blade() const { return scene_.tool.kind == "blade"; }
+  // The needle's (or blade's) direction in the device frame (the scene's tool.axis), unit.
   Vec3 scene_axis() const { return scene_.tool.axis.normalized(); }
-  // Which way a press moves the tool: a needle along its own shaft (as the device has it turned),
-  // a sphere along the eye's ray through the cursor.
+  // Which way a press moves the tool: a needle along its own shaft, a blade point first along its
+  // edge (as the device has it turned), a sphere along the eye's ray through the cursor.
   Vec3 press_direction(const Vec3& ray) const;
   static constexpr double kTiltRadiansPerPixel = 0.5 * M_PI / 180;
 

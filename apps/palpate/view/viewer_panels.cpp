@@ -154,6 +154,10 @@ void Viewer::draw_panels() {
     ImGui::TextDisabled("left drag: orbit  shift/middle: pan  wheel: zoom");
     ImGui::TextDisabled("right drag: press the tool in, wheel: depth");
     if (scene_.tool.kind == "needle") ImGui::TextDisabled("ctrl + left drag: tilt the needle about the hole");
+    if (blade()) {
+      ImGui::TextDisabled("blade: in point first; move while pressed to cut along");
+      ImGui::TextDisabled("ctrl + left drag: tilt the blade about where it went in");
+    }
     ImGui::TextDisabled("R: untilt  F12 or S: screenshot  Esc: quit");
   }
   if (player_) draw_script_panel();
@@ -162,6 +166,17 @@ void Viewer::draw_panels() {
     ImGui::Text("|F| %.3f N  (%.3f, %.3f, %.3f)", force_.norm(), force_.x(), force_.y(), force_.z());
     ImGui::Text("tool %.1f, %.1f, %.1f mm", 1e3 * tip.x(), 1e3 * tip.y(), 1e3 * tip.z());
     if (pressing_) ImGui::Text("depth past the surface %.1f mm", 1e3 * press_depth_);
+    if (blade()) {
+      // The edge (heel → tip) and whether the loop has had to stop it cutting (docs/haptics.md).
+      const Vec3 a = needle_axis(scene_axis(), feeder_->orientation());
+      ImGui::Text("blade %.0f mm (%.2f, %.2f, %.2f), tilted %.1f deg", 1e3 * scene_.tool.length, a.x(),
+                  a.y(), a.z(), std::acos(std::clamp(a.dot(scene_axis()), -1.0, 1.0)) * 180 / M_PI);
+      if (loop_) {
+        const std::uint64_t jumps = loop_->stats().safety.blade_teleport;
+        if (jumps > 0) ImGui::TextColored(ImVec4(1.0f, 0.6f, 0.2f, 1.0f), "blade jumped %llu ticks: pressed, not cut",
+                                          static_cast<unsigned long long>(jumps));
+      }
+    }
     if (scene_.tool.kind == "needle") {
       const Vec3 a = needle_axis(scene_axis(), feeder_->orientation());
       ImGui::Text("needle (%.2f, %.2f, %.2f), %.1f deg from tool.axis", a.x(), a.y(), a.z(),

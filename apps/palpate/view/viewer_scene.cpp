@@ -2,6 +2,8 @@
 // snapshot, the tools, the force arrow, the probe and its image plane; and screenshots.
 #include "viewer_impl.h"
 
+#include "core/blade_shape.h"
+
 namespace palpate::view::detail {
 namespace {
 
@@ -126,6 +128,24 @@ void Viewer::draw_scene(int fb_width, int fb_height) {
       const Vec3 axis = needle_axis(scene_axis(), feeder_->orientation());
       append_cylinder(mesh, tip - scene_.tool.length * axis, tip, scene_.tool.radius, scene_.tool.radius);
       append_sphere(mesh, tip, scene_.tool.radius, 10, 6);
+    } else if (blade()) {
+      // The scalpel as the frames draw it (core/blade_shape.h): the blade on its edge, the handle
+      // behind the heel, and the edge itself in a colour of its own.
+      const BladeShape b = blade_shape(tip, needle_axis(scene_axis(), feeder_->orientation()), scene_.tool.length,
+                                       scene_.tool.radius);
+      BladeMesh bm;
+      append_blade(bm, b);
+      append_blade_handle(bm, b);
+      mesh.positions = std::move(bm.positions);
+      mesh.normals = std::move(bm.normals);
+      mesh.triangles = std::move(bm.triangles);
+      Vec3 ends[4];
+      blade_edge_lines(b, ends);
+      const Vec3f edge[4] = {ends[0].cast<float>(), ends[1].cast<float>(), ends[2].cast<float>(), ends[3].cast<float>()};
+      static const std::array<int, 2> kEdge[2] = {{0, 1}, {2, 3}};
+      gl_->triangles(mesh, kToolColor);
+      mesh.clear();
+      gl_->lines(edge, kEdge, kBladeEdgeColor);
     } else {
       append_sphere(mesh, tip, scene_.tool.radius);
     }

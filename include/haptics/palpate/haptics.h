@@ -65,8 +65,11 @@ struct LoopSettings {
   double proxy_mass = 0.001;          // kg, virtual coupling
   double coupling_stiffness = 0;      // N/m, virtual coupling; 0 = the device's maximum
   WatchdogSettings watchdog;
-  ToolDef tool;                       // tool.axis: the needle's direction at identity orientation;
-                                      // each tick the tissues see orientation * tool.axis
+  ToolDef tool;                       // tool.axis: the needle's (or blade's) direction at identity
+                                      // orientation; each tick the tissues see orientation * tool.axis
+  double blade_max_speed = 3.0;       // m/s, the fastest a blade's tip may move and still cut: a tick
+                                      // that moves it farther (a glitch, a teleport) presses without
+                                      // cutting and is counted (SafetyCounters::blade_teleport)
   std::filesystem::path csv;          // record every tick here (via <csv>.part); "" = no recording
   OutcomeModel outcome;               // roles and rest surfaces the run's outcome and metrics are
                                       // tracked over each tick (build_outcome_model); empty = none

@@ -27,6 +27,7 @@ enum SafetyEvent : std::uint32_t {
   kEventOverrun = 1u << 4,
   kEventStalled = 1u << 5,
   kEventDeviceFailed = 1u << 6,
+  kEventBladeTeleport = 1u << 7,  // the blade's tip jumped too far this tick: it pressed, it did not cut
 };
 // "clamped|rate_limited" for a mask, "" for none; `out` holds at least 96 characters.
 void safety_event_names(std::uint32_t mask, char* out, size_t size) noexcept;
@@ -40,6 +41,10 @@ struct SafetyCounters {
   std::uint64_t overrun = 0;        // ticks zeroed by the watchdog: work past deadline + margin
   std::uint64_t stalled = 0;        // ticks zeroed by the watchdog: a physics thread stalled
   std::uint64_t device_failed = 0;  // ticks zeroed because the device read failed or was NaN
+  // Ticks a blade's tip moved farther than LoopSettings::blade_max_speed · dt: the tissues met it as
+  // a blunt tool that tick (ToolState::blade false), so a glitch of the device never slices the
+  // tissue. Its force is not zeroed (it still presses), so zeroed() leaves it out.
+  std::uint64_t blade_teleport = 0;
 
   // Ticks the filter sent zero for (each restarts the ramp-in); clamping and rate limits excluded.
   std::uint64_t zeroed() const noexcept { return non_finite + step_failed + overrun + stalled + device_failed; }

@@ -65,7 +65,9 @@ class GltfScene {
   // A surface with a fixed triangulation; `rgba` its colour. Returns its index.
   int add_surface(const std::string& name, std::span<const std::uint32_t> triangles, std::array<float, 4> rgba);
   // A rigid tool: "needle" (a cylinder of `radius` and `length` from its tip back along `axis`, in
-  // its own frame: tip at the origin), "sphere" (of `radius`) or "box" (half extents `size`).
+  // its own frame: tip at the origin), "blade" (a scalpel: its cutting edge of `length` from the tip
+  // back along `axis`, the flat blade `2·radius` thick behind it and a handle beyond the heel),
+  // "sphere" (of `radius`) or "box" (half extents `size`).
   int add_tool(const std::string& name, const std::string& shape, double radius, double length, const Vec3& axis,
                const Vec3& size, std::array<float, 4> rgba);
   // One frame at `time` (s, ascending): each surface's points (n x 3, the same n every frame) and

@@ -44,13 +44,15 @@ struct RenderLines {
   float width = 1.0f;                           // pixels (of the final image)
 };
 
-// The tool: a sphere around `tip`, or a needle, a cylinder from tip − length·axis to tip.
+// The tool: a sphere around `tip`; a needle, a cylinder from tip − length·axis to tip; or a blade,
+// a thin flat blade whose cutting edge runs from tip − length·axis to tip, its back `blade_depth`
+// behind the edge, with a handle beyond the heel.
 struct RenderTool {
-  std::string kind = "sphere";          // sphere | needle, as ToolDef::kind
+  std::string kind = "sphere";          // sphere | needle | blade, as ToolDef::kind
   Vec3 tip = Vec3::Zero();              // m, the HIP
-  Vec3 axis = Vec3(0, -1, 0);           // unit, handle to tip (needle)
-  double radius = 0.001;                // m
-  double length = 0.08;                 // m, needle shaft length
+  Vec3 axis = Vec3(0, -1, 0);           // unit, handle to tip (needle, blade)
+  double radius = 0.001;                // m, a blade's half thickness
+  double length = 0.08;                 // m, needle shaft length, or a blade's edge length
   Vec3f color = Vec3f(0.72f, 0.74f, 0.78f);  // steel
 };
 

@@ -22,11 +22,12 @@
 
 namespace palpate {
 
-// What a tool does in a scene. A scene's `tool` is a needle or a sphere (a palpating tip, which
-// also grasps while the device's first button is held); its `probe` is an ultrasound probe.
+// What a tool does in a scene. A scene's `tool` is a needle, a blade or a sphere (a palpating tip,
+// which also grasps while the device's first button is held); its `probe` is an ultrasound probe.
 enum class ToolRole : std::uint8_t {
   sphere,           // the HIP of the charged-particle paper: presses, grasps (tool.kind sphere)
   needle,           // punctures; its shaft is felt (tool.kind needle)
+  blade,            // a scalpel: presses, and cuts where its edge sweeps (tool.kind blade)
   ultrasound_probe  // the other hand's linear transducer, pressing the neck (scene `probe`)
 };
 const char* tool_role_name(ToolRole role) noexcept;
