@@ -46,7 +46,7 @@ py::dict timing(const TimingFigures& t) { return py::dict("median"_a = t.median,
 py::dict safety_dict(const SafetyCounters& c) {
   return py::dict("non_finite"_a = c.non_finite, "step_failed"_a = c.step_failed, "clamped"_a = c.clamped,
                   "rate_limited"_a = c.rate_limited, "overrun"_a = c.overrun, "stalled"_a = c.stalled,
-                  "device_failed"_a = c.device_failed);
+                  "device_failed"_a = c.device_failed, "blade_teleport"_a = c.blade_teleport);
 }
 
 py::dict metrics_dict(const TrainingMetrics& m) {

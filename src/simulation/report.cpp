@@ -254,7 +254,7 @@ std::vector<std::array<double, 2>> thin_trace(const std::vector<std::array<doubl
     const size_t i0 = b * pts.size() / buckets, i1 = (b + 1) * pts.size() / buckets;
     if (i0 >= i1) continue;
     auto [lo, hi] = std::minmax_element(pts.begin() + std::ptrdiff_t(i0), pts.begin() + std::ptrdiff_t(i1),
-                                        [](const auto& a, const auto& b) { return a[1] < b[1]; });
+                                        [](const auto& p, const auto& q) { return p[1] < q[1]; });
     if (lo - pts.begin() < hi - pts.begin()) out.push_back(*lo), out.push_back(*hi);
     else out.push_back(*hi), out.push_back(*lo);
   }
