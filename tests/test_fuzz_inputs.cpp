@@ -11,6 +11,8 @@
 #include <palpate/mesh_load.h>
 #include <palpate/tissue_files.h>
 
+#include "spring_cut_paths.h"
+
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -113,6 +115,19 @@ std::optional<std::string> run_target(const std::string& target, const std::stri
       errors += p.error().message + "\n";
     }
     return errors;
+  }
+  if (target == "fuzz_spring_cut") {
+    // Not a reader: a blade path (spring_cut_paths.h), whose properties must hold.
+    static const SpringModel base = cut_paths::block_model();
+    where = "blade path";
+    const auto r = cut_paths::run_blade_path(base, reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), true);
+    const bool cut_inverted =
+        r.inverted != 0 &&
+        cut_paths::run_blade_path(base, reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), false, 1e9)
+                .inverted == 0;
+    if (r.finite && r.open_edges == 0 && !cut_inverted && r.residual <= 1e-10) return std::nullopt;
+    return "blade path: finite " + std::to_string(r.finite) + ", open edges " + std::to_string(r.open_edges) +
+           ", inverted " + std::to_string(r.inverted) + ", residual " + std::to_string(r.residual);
   }
   ADD_FAILURE() << "no reader for the fuzz target directory '" << target << "'";
   return "unknown target";

@@ -59,11 +59,10 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
 
   // A blade may cut this organ (the scene's tool is a blade): the cutter's worker thread starts here.
   Status enable_cutting(const spring::BladeSettings& blade, const SpringCutOptions& options) {
-    auto cutter = SpringCutter::create(model_, options);
-    if (!cutter) return cutter.error();
-    cutter_ = std::move(*cutter);
-    blade_ = std::make_unique<spring::BladeCut>(model_, *cutter_, blade);
-    return {};
+    uncut_ = std::make_unique<SpringModel>(model_);  // what reset() heals back to (a deep copy)
+    blade_settings_ = blade;
+    cut_options_ = options;
+    return start_cutting();
   }
 
   Vec3 step(const ToolState& tool, double dt) noexcept override {
@@ -95,6 +94,7 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
 
   bool last_step_failed() const noexcept override { return failed_; }
   void set_real_time(bool real_time) noexcept override {
+    real_time_ = real_time;
     if (cutter_) cutter_->set_fixed_latency(real_time ? -1 : kFixedLatency);
   }
   ContactComplianceSource* contact_compliance() noexcept override { return this; }
@@ -175,8 +175,18 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
 
   const SpringBody* spring_body() const noexcept override { return &body_; }
 
-  // Back to rest; a cut stays cut (the wound is topology, not state).
+  // Back to rest, and a cut organ whole again (a new attempt). (A step's own recovery from numerical
+  // trouble, palpate::reset in step(), keeps the wound: it puts back positions, not springs.)
   void reset() noexcept override {
+    if (uncut_ && cutter_ && cutter_->status().removed_springs + cutter_->status().removed_tets > 0) {
+      try {
+        blade_.reset();
+        cutter_.reset();  // its worker stops; the model no longer points at its correction
+        model_ = *uncut_;
+        (void)start_cutting();
+      } catch (...) {  // out of memory: the organ stays as it was (cut), nothing half-made
+      }
+    }
     palpate::reset(model_, state_);
     if (blade_) blade_->reset();
   }
@@ -200,6 +210,19 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
   SpringBody body_;  // points at model_ and state_ (the tissue is never copied nor moved)
   bool failed_ = false;  // the last step() reset the state
   std::unique_ptr<SpringCompliance> compliance_;
+  Status start_cutting() {
+    auto cutter = SpringCutter::create(model_, cut_options_);
+    if (!cutter) return cutter.error();
+    cutter_ = std::move(*cutter);
+    blade_ = std::make_unique<spring::BladeCut>(model_, *cutter_, blade_settings_);
+    if (real_time_) cutter_->set_fixed_latency(-1);
+    return {};
+  }
+
+  std::unique_ptr<SpringModel> uncut_;        // the model before any cut (reset() heals to it)
+  spring::BladeSettings blade_settings_;
+  SpringCutOptions cut_options_;
+  bool real_time_ = false;
   std::unique_ptr<SpringCutter> cutter_;      // the scene's tool is a blade (declared after model_: dies first)
   std::unique_ptr<spring::BladeCut> blade_;
   std::array<TissueEvent, 64> events_{};
