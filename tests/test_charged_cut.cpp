@@ -6,9 +6,13 @@
 
 #include "core/blade_sweep.h"
 
+#include <palpate/scene.h>
 #include <palpate/surface.h>
+#include <palpate/tissue.h>
+#include <palpate/tissue_files.h>
 
 #include <random>
+#include <set>
 
 namespace {
 
@@ -495,6 +499,58 @@ TEST(ChargedCut, TheDrawnSurfaceHasNoTriangleAcrossTheCutAndShowsItsWalls) {
   ASSERT_TRUE(t->tessellate(control, out));
   EXPECT_EQ(out.triangles, whole.triangles);
   EXPECT_EQ(out.point_count(), n);
+}
+
+TEST(ChargedCut, AScenesBladeToolCutsThroughTissueStepAndTheSnapshotShowsTheCut) {
+  auto scene = parse_scene(R"(tissues:
+  - name: skin
+    patch: {width: 0.02, height: 0.02, spacing: 0.001}
+)", "t.yaml", PALPATE_DATA_DIR);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  auto made = make_tissue(*scene, 0);
+  ASSERT_TRUE(made.ok()) << made.error().message;
+  Tissue& t = **made;
+  TissueSnapshot rest;
+  t.snapshot(rest);
+  EXPECT_TRUE(rest.cut_links.empty());
+  ToolState tool;
+  tool.blade = true, tool.length = 0.008, tool.radius = 0.0005, tool.axis = Vec3(0, -1, 0);
+  std::vector<TissueEvent> events;
+  auto go = [&](const Vec3& a, const Vec3& b) {
+    const int n = int(std::ceil((b - a).norm() / 2e-5));
+    for (int k = 1; k <= n; ++k) {
+      tool.tip = a + (b - a) * (double(k) / n);
+      ASSERT_TRUE(t.step(tool, kDt).allFinite());
+      TissueEvent ev[8];
+      const size_t got = t.drain_events(ev);
+      events.insert(events.end(), ev, ev + got);
+    }
+  };
+  go(Vec3(-0.005, 0.004, 0.0002), Vec3(-0.005, -0.003, 0.0002));
+  go(Vec3(-0.005, -0.003, 0.0002), Vec3(0.005, -0.003, 0.0002));
+  go(Vec3(0.005, -0.003, 0.0002), Vec3(0.005, 0.004, 0.0002));
+  EXPECT_TRUE(std::any_of(events.begin(), events.end(), [](const TissueEvent& e) { return std::string(e.kind) == "cut"; }));
+  TissueSnapshot cut;
+  t.snapshot(cut);
+  ASSERT_GE(cut.cut_links.size(), 16u);
+  EXPECT_EQ(cut.links.size() + cut.cut_links.size(), rest.links.size());
+  // No drawn link or triangle joins two particles across a cut link.
+  std::set<std::pair<int, int>> gone;
+  for (const auto& [i, j] : cut.cut_links) gone.insert({std::min(i, j), std::max(i, j)});
+  for (const auto& [i, j] : cut.links) EXPECT_FALSE(gone.count({std::min(i, j), std::max(i, j)}));
+  for (const auto& tri : cut.triangles)
+    for (int e = 0; e < 3; ++e) {
+      const int a = tri[size_t(e)], b = tri[size_t((e + 1) % 3)];
+      EXPECT_FALSE(gone.count({std::min(a, b), std::max(a, b)})) << "a drawn triangle bridges the cut";
+    }
+  EXPECT_LT(cut.triangles.size(), rest.triangles.size());
+  // Back to rest for a new run: healed.
+  t.reset();
+  TissueSnapshot healed;
+  t.snapshot(healed);
+  EXPECT_TRUE(healed.cut_links.empty());
+  EXPECT_EQ(healed.links.size(), rest.links.size());
+  EXPECT_EQ(healed.triangles.size(), rest.triangles.size());
 }
 
 // Item 8: thousands of random blade paths — crossing, re-cutting, cutting pieces off — through
