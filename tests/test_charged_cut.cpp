@@ -584,6 +584,23 @@ TEST(ChargedCut, AScenesBladeToolCutsThroughTissueStepAndTheSnapshotShowsTheCut)
   EXPECT_EQ(healed.triangles.size(), rest.triangles.size());
 }
 
+TEST(ChargedCut, ACuttingMaterialOutOfRangeIsRefusedAtBuildNamingTheKey) {
+  PatchDef patch;
+  patch.width = patch.height = 0.01, patch.spacing = 0.001;
+  for (const char* key : {"cutting_force", "cutting_drag_per_length", "wound_gap"}) {
+    ChargedMaterialDef mat;
+    double& v = std::string(key) == "cutting_force" ? mat.cutting_force
+              : std::string(key) == "wound_gap"     ? mat.wound_gap
+                                                    : mat.cutting_drag_per_length;
+    for (double bad : {-1.0, std::numeric_limits<double>::quiet_NaN()}) {
+      v = bad;
+      auto m = build_charged_patch(patch, mat, "t.yaml:3: tissue 'skin'");
+      ASSERT_FALSE(m.ok()) << key << " " << bad;
+      EXPECT_NE(m.error().message.find(std::string("'") + key + "'"), std::string::npos) << m.error().message;
+    }
+  }
+}
+
 // Item 8: thousands of random blade paths — crossing, re-cutting, cutting pieces off — through
 // one patch: no non-finite value, the cut set symmetric and only growing, the force finite.
 TEST(ChargedCut, RandomBladePathsNeverBreakIt) {

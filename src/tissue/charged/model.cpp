@@ -40,7 +40,10 @@ Result<double> check_material(const ChargedMaterialDef& m, double spacing, const
                    "; expected a finite value > 0"};
   for (auto [v, key] : {std::pair{m.elasticity, "elasticity"}, std::pair{m.particle_radius, "particle_radius"},
                         std::pair{m.max_separation, "max_separation"}, std::pair{m.puncture_time, "puncture_time"},
-                        std::pair{m.friction_per_length, "friction_per_length"}})
+                        std::pair{m.friction_per_length, "friction_per_length"},
+                        std::pair{m.cutting_force, "cutting_force"},
+                        std::pair{m.cutting_drag_per_length, "cutting_drag_per_length"},
+                        std::pair{m.wound_gap, "wound_gap"}})
     if (!(std::isfinite(v) && v >= 0))
       return Error{where + ": material '" + key + "' is " + num(v) + "; expected a finite value >= 0"};
   for (auto [v, key] : {std::pair{m.linear_share, "linear_share"}, std::pair{m.snap_share, "snap_share"}})
