@@ -209,7 +209,9 @@ inline bool link_cut(const ChargedState& s, int i, int k) noexcept {
 
 // One tick of the model, dt seconds (docs/models/charged-particles.md): HIP update, relaxation
 // (elasticity), repulsion, the layers `above` pressing on this one, propagation (separation rule),
-// force. Returns the force of the tissue on the HIP, N. noexcept, allocation-free, deterministic.
+// force; for a blade, the cut of what its edge swept since the last tick and the cutting drag
+// (docs/models/cutting.md). Returns the force of the tissue on the HIP, N. noexcept,
+// allocation-free, deterministic.
 // `tissue` tags the events it emits.
 Vec3 step(const ChargedModel& model, ChargedState& state, const ChargedHip& hip, double dt,
           int tissue = -1, std::span<const ChargedLayer> above = {}) noexcept;

@@ -1,7 +1,8 @@
 // stages.h — the charged-particle step's stages and the queries they share (internal): the HIP's
 // tracks (stage 1), relaxation (2), repulsion (3), the layers above pressing (3b), propagation (4),
-// the rest surface under the HIP and the event queue. step.cpp runs them in order and computes the
-// force; docs/models/charged-particles.md has the equations and reasoning.
+// the rest surface under the HIP, the event queue, and cutting (cut.cpp: the links a blade's sweep
+// crosses, the wound's opening, the layer's presence over a wound). step.cpp runs them in order and
+// computes the force; docs/models/charged-particles.md and cutting.md have the equations and reasoning.
 #pragma once
 
 #include <palpate/charged.h>

@@ -1,6 +1,6 @@
 // step.cpp — the charged-particle step: its stages in order (stages.cpp: HIP update, relaxation,
 // repulsion, propagation by the separation rule), then the force (contact law on the indentation,
-// puncture, snap, track centring and shaft friction).
+// puncture, snap, track centring and shaft friction) and a blade's cut and drag (cut.cpp).
 // Equations and reasoning: docs/models/charged-particles.md.
 #include <palpate/charged.h>
 
