@@ -116,6 +116,10 @@ struct ChargedWound {
 };
 
 inline constexpr int kChargedMaxHoles = 16;
+// The most particles on wound edges a state holds (a cut of ~30 m at 1 mm spacing): the wound table
+// is min(n, this) entries, so a million-particle patch does not carry one per particle. Edge
+// particles past it are still cut, but do not part (ChargedState::wound_full counts them).
+inline constexpr size_t kChargedMaxWound = size_t{1} << 16;
 inline constexpr int kChargedEventCapacity = 32;
 
 // Everything that changes while a patch is stepped. Copying it is a snapshot; reset() restores rest.
@@ -139,8 +143,11 @@ struct ChargedState {
   // Cuts (docs/models/cutting.md). They are the tissue's topology, not its numerical state: reset()
   // keeps them; clear_cuts() heals the patch.
   std::vector<std::uint8_t> cut;       // (n) bit k: the link to neighbour slot k is cut (symmetric)
-  std::vector<ChargedWound> wound;     // (n) capacity: the wound's edge particles, first wound_count,
-                                       //   sorted by particle (flags bit 3 marks them)
+  std::vector<ChargedWound> wound;     // (min(n, kChargedMaxWound)) the wound's edge particles, first
+                                       //   wound_count, in the order cut (flags bit 3 marks them)
+  std::vector<std::int32_t> wound_index;  // (power of two ≥ 2·wound.size()) open addressing, particle
+                                          //   → its entry in `wound`, −1 empty
+  long wound_full = 0;                 // edge particles that found the wound table full (never, normally)
   std::vector<std::int32_t> cut_scratch;  // (n) particles whose links were cut this tick (scratch)
   size_t wound_count = 0;
   long cut_link_count = 0;             // links cut so far

@@ -19,28 +19,36 @@ bool rest_height(const ChargedModel& m, const Vec3& p, double reach, double& hei
   return rest_surface(m, p, reach, height, n);
 }
 
-// Particle i's wound entry, inserted (offset zero, not easing) when it has none. The table stays
-// sorted by particle: a new edge particle is inserted in place (a cut adds a few a tick; the table
-// holds at most n).
-ChargedWound& wound_entry(ChargedState& s, int i) noexcept {
-  const auto begin = s.wound.begin(), end = begin + static_cast<std::ptrdiff_t>(s.wound_count);
-  auto it = std::lower_bound(begin, end, i, [](const ChargedWound& w, int p) { return w.particle < p; });
-  if (it == end || it->particle != i) {
-    std::move_backward(it, end, end + 1);
-    ++s.wound_count;
-    *it = ChargedWound{};
-    it->particle = i;
-    it->since = s.time;
-    s.flags[static_cast<size_t>(i)] |= kWound;
+// Particle i's wound entry, added (offset zero, not easing) when it has none: appended to the
+// table and hashed into its index (open addressing, at most half full). Null when the table is full.
+ChargedWound* wound_entry(ChargedState& s, int i) noexcept {
+  const size_t mask = s.wound_index.size() - 1;
+  size_t k = (static_cast<std::uint32_t>(i) * 2654435761u) & mask;
+  for (;; k = (k + 1) & mask) {
+    const std::int32_t w = s.wound_index[k];
+    if (w < 0) break;
+    if (s.wound[static_cast<size_t>(w)].particle == i) return &s.wound[static_cast<size_t>(w)];
   }
-  return *it;
+  if (s.wound_count == s.wound.size()) {
+    ++s.wound_full;
+    return nullptr;
+  }
+  s.wound_index[k] = static_cast<std::int32_t>(s.wound_count);
+  ChargedWound& wd = s.wound[s.wound_count++];
+  wd = ChargedWound{};
+  wd.particle = i;
+  wd.since = s.time;
+  s.flags[static_cast<size_t>(i)] |= kWound;
+  return &wd;
 }
 
 // Send particle i's rest offset toward `to` (m) from wherever it is now: the easing restarts from
 // its current value, so the particle's target never jumps.
 void retarget(const ChargedModel& m, ChargedState& s, int i, const Vec3& to) noexcept {
   const auto k = static_cast<size_t>(i);
-  ChargedWound& wd = wound_entry(s, i);
+  ChargedWound* entry = wound_entry(s, i);
+  if (!entry) return;
+  ChargedWound& wd = *entry;
   Vec3 now, old_to;
   wound_offset(m, s, wd, now, old_to);
   for (int c = 0; c < 3; ++c) wd.from[c] = static_cast<float>(now[c]), wd.to[c] = static_cast<float>(to[c]);
@@ -136,8 +144,9 @@ int cut_links(const ChargedModel& m, ChargedState& s, const Vec3& heel0, const V
         d -= d.dot(ne) * ne;
         if (!(d.squaredNorm() > 0)) continue;
         d.normalize();
-        ChargedWound& wd = wound_entry(s, e);
-        for (int c = 0; c < 3; ++c) wd.away[c] += static_cast<float>(d[c]);
+        ChargedWound* wd = wound_entry(s, e);
+        if (!wd) continue;  // the table is full: cut, but this end does not part
+        for (int c = 0; c < 3; ++c) wd->away[c] += static_cast<float>(d[c]);
         mark(s, e, marked);
       }
     }

@@ -87,7 +87,10 @@ void fill_state_arrays(const ChargedModel& m, ChargedState& s) {
   s.active.assign(n, 0);
   s.queue.assign(n, 0);
   s.cut.assign(n, 0);
-  s.wound.assign(n, ChargedWound{});
+  s.wound.assign(std::min(n, kChargedMaxWound), ChargedWound{});
+  size_t slots = 2;
+  while (slots < 2 * s.wound.size()) slots *= 2;
+  s.wound_index.assign(slots, -1);
   s.cut_scratch.assign(n, 0);
   s.wound_count = 0;
   s.cut_link_count = 0;
@@ -146,10 +149,13 @@ int charged_slot_of(const ChargedModel& m, int i, int j) noexcept {
 }
 
 const ChargedWound* charged_wound_of(const ChargedState& s, int i) noexcept {
-  const auto end = s.wound.begin() + static_cast<std::ptrdiff_t>(s.wound_count);
-  const auto it = std::lower_bound(s.wound.begin(), end, i,
-                                   [](const ChargedWound& w, int p) { return w.particle < p; });
-  return it != end && it->particle == i ? &*it : nullptr;
+  if (s.wound_count == 0) return nullptr;
+  const size_t mask = s.wound_index.size() - 1;
+  for (size_t k = (static_cast<std::uint32_t>(i) * 2654435761u) & mask;; k = (k + 1) & mask) {
+    const std::int32_t w = s.wound_index[k];
+    if (w < 0) return nullptr;
+    if (s.wound[static_cast<size_t>(w)].particle == i) return &s.wound[static_cast<size_t>(w)];
+  }
 }
 
 Result<ChargedModel> build_charged_patch(const PatchDef& p, const ChargedMaterialDef& material,
@@ -450,7 +456,9 @@ void reset(const ChargedModel& model, ChargedState& s) noexcept {
 
 void clear_cuts(const ChargedModel& model, ChargedState& s) noexcept {
   std::fill(s.cut.begin(), s.cut.end(), std::uint8_t{0});
+  std::fill(s.wound_index.begin(), s.wound_index.end(), -1);
   s.wound_count = 0;
+  s.wound_full = 0;
   s.cut_link_count = 0;
   reset(model, s);
 }
@@ -458,8 +466,9 @@ void clear_cuts(const ChargedModel& model, ChargedState& s) noexcept {
 size_t charged_bytes_per_particle(const ChargedModel& m) {
   size_t model_bytes = 3 * sizeof(float) + 3 * sizeof(std::int16_t);            // origin, normal
   if (m.layout == ChargedLayout::mesh) model_bytes += 6 * sizeof(std::int32_t);  // neighbours
-  // Positions, flags, the two scratch indices and the cut mask. The wound table (ChargedWound,
-  // capacity n) is cold: read only for particles on a wound's edge.
+  // Positions, flags, the two scratch indices and the cut mask. The wound table (ChargedWound and
+  // its index, at most kChargedMaxWound entries) and the cutting scratch are cold: read only for
+  // particles on a wound's edge or while a blade cuts.
   const size_t state_bytes = 3 * sizeof(float) + 2 * sizeof(std::uint8_t) + 2 * sizeof(std::int32_t);
   return model_bytes + state_bytes;  // lattice 40, mesh 64
 }
