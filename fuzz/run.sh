@@ -20,7 +20,7 @@ shift 2
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
   targets=(fuzz_surface_obj fuzz_surface_ply fuzz_surface_stl fuzz_surface_off fuzz_gmsh fuzz_tetgen fuzz_vtk
-           fuzz_scene fuzz_predictor fuzz_trajectory_csv fuzz_recording_csv fuzz_spring_cut)
+           fuzz_scene fuzz_predictor fuzz_trajectory_csv fuzz_recording_csv fuzz_spring_cut fuzz_charged_cut)
 fi
 work="$build/fuzz"
 mkdir -p "$work/findings" "$work/logs"

@@ -123,10 +123,10 @@ TEST(ChargedModel, BuildErrorsNameTheKeyAndWhatWasExpected) {
 TEST(ChargedModel, MemoryPerParticleWithinBudgetAndStateAtRest) {
   auto m = build_charged_patch(flat_patch(0.04, 0.04, 0.001), ChargedMaterialDef{});
   ASSERT_TRUE(m.ok());
-  EXPECT_EQ(charged_bytes_per_particle(*m), 39u);  // float origin+position, snorm16 normal, flags, 2 scratch indices
+  EXPECT_EQ(charged_bytes_per_particle(*m), 40u);  // float origin+position, snorm16 normal, flags, 2 scratch indices, cut mask
   ChargedModel mesh_like = *m;
   mesh_like.layout = ChargedLayout::mesh;
-  EXPECT_EQ(charged_bytes_per_particle(mesh_like), 63u);  // + 6 explicit int32 neighbours
+  EXPECT_EQ(charged_bytes_per_particle(mesh_like), 64u);  // + 6 explicit int32 neighbours
   ChargedState s = make_charged_state(*m);
   ASSERT_EQ(s.x.size(), m->size());
   EXPECT_EQ(s.active.size(), m->size());

@@ -12,6 +12,7 @@
 #include <palpate/tissue_files.h>
 
 #include "spring_cut_paths.h"
+#include "charged_cut_drive.h"
 
 #include <gtest/gtest.h>
 
@@ -94,6 +95,10 @@ std::optional<std::string> run_target(const std::string& target, const std::stri
   if (target == "fuzz_recording_csv") {
     const fs::path f = scratch.write("input.csv", bytes);
     return outcome(load_recording_csv(f), f);
+  }
+  if (target == "fuzz_charged_cut") {  // blade paths, not a file: run as the fuzz target runs them
+    where = "fuzz_charged_cut";
+    return fuzz::drive_charged_cut(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size());
   }
   if (target == "fuzz_predictor") {
     // The unit cube's networks for each precomputing solver, as fuzz_predictor.cpp builds them:

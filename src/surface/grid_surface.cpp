@@ -207,7 +207,100 @@ Result<SurfaceTessellator> SurfaceTessellator::build(int rows, int cols, const S
         t.triangles_.insert(t.triangles_.end(), {p00, p01, p11, p00, p11, p10});
       }
   }
+  // The grid cell under each sample quad's centre: a Bézier patch spans the 3 (or its leftover 2
+  // or 1) cells from control index 3p, a B-spline span one cell.
+  auto cell_of = [&](int n, int patch, double at) {
+    if (def.scheme == SurfaceScheme::bspline) return patch;
+    const int first = 3 * patch, k = std::min(3, n - 1 - first);
+    return first + std::min(k - 1, int(std::floor(at * k)));
+  };
+  t.triangle_cell_.reserve(t.triangles_.size() / 3);
+  for (int pi = 0; pi < t.patch_rows_; ++pi)
+    for (int pj = 0; pj < t.patch_cols_; ++pj)
+      for (int a = 0; a < res; ++a)
+        for (int b = 0; b < res; ++b) {
+          const int r = cell_of(rows, pi, (a + 0.5) / res), c = cell_of(cols, pj, (b + 0.5) / res);
+          const std::int32_t cell = std::int32_t(r * (cols - 1) + c);
+          t.triangle_cell_.insert(t.triangle_cell_.end(), {cell, cell});
+        }
   return t;
+}
+
+bool grid_cut_cells(int rows, int cols, std::span<const std::array<int, 2>> cut_links,
+                    std::span<std::uint8_t> cells) noexcept {
+  if (rows < 2 || cols < 2 || cells.size() != size_t(rows - 1) * size_t(cols - 1)) return false;
+  std::fill(cells.begin(), cells.end(), std::uint8_t{0});
+  const long n = long(rows) * long(cols);
+  for (const auto& [i, j] : cut_links) {
+    if (i < 0 || j < 0 || i >= n || j >= n) continue;
+    const int ri = int(i / cols), ci = int(i % cols), rj = int(j / cols), cj = int(j % cols);
+    if (std::abs(ri - rj) > 1 || std::abs(ci - cj) > 1 || i == j) continue;
+    // Every cell having both as corners: one for a diagonal, the two either side for a row or
+    // column link.
+    const int r0 = std::min(ri, rj), c0 = std::min(ci, cj);
+    for (int r = (ri == rj ? r0 - 1 : r0); r <= r0; ++r)
+      for (int c = (ci == cj ? c0 - 1 : c0); c <= c0; ++c)
+        if (r >= 0 && c >= 0 && r < rows - 1 && c < cols - 1) cells[size_t(r) * size_t(cols - 1) + size_t(c)] = 1;
+  }
+  return true;
+}
+
+bool SurfaceTessellator::cut(std::span<const std::uint8_t> cells, float thickness, SurfaceBuffers& out) const {
+  const size_t n = point_count();
+  if (cells.size() != size_t(rows_ - 1) * size_t(cols_ - 1) || out.positions.size() < 3 * n ||
+      out.normals.size() != out.positions.size())
+    return false;
+  if (std::none_of(cells.begin(), cells.end(), [](std::uint8_t c) { return c != 0; })) return true;
+  const int res = def_.resolution, r1 = res + 1;
+  const size_t quads = triangle_cell_.size() / 2;
+  std::vector<std::uint8_t> dropped(quads);
+  for (size_t q = 0; q < quads; ++q) dropped[q] = cells[size_t(triangle_cell_[2 * q])] != 0;
+  out.positions.resize(3 * n), out.normals.resize(3 * n);  // drop the walls of an earlier cut()
+  out.triangles.clear();
+  for (size_t q = 0; q < quads; ++q)
+    if (!dropped[q]) out.triangles.insert(out.triangles.end(), triangles_.begin() + 6 * q, triangles_.begin() + 6 * q + 6);
+  const auto pos = [&](uint32_t i) { return Vec3f(out.positions[3 * i], out.positions[3 * i + 1], out.positions[3 * i + 2]); };
+  const auto nrm = [&](uint32_t i) { return Vec3f(out.normals[3 * i], out.normals[3 * i + 1], out.normals[3 * i + 2]); };
+  const auto push = [&](const Vec3f& p, const Vec3f& w) {
+    out.positions.insert(out.positions.end(), {p.x(), p.y(), p.z()});
+    out.normals.insert(out.normals.end(), {w.x(), w.y(), w.z()});
+    return uint32_t(out.positions.size() / 3 - 1);
+  };
+  // A kept quad's side against a dropped one (in its patch or the next) gets a wall.
+  const int pc = patch_cols_, pr = patch_rows_;
+  for (int pi = 0; pi < pr; ++pi)
+    for (int pj = 0; pj < pc; ++pj)
+      for (int a = 0; a < res; ++a)
+        for (int b = 0; b < res; ++b) {
+          const size_t q = (size_t(pi) * pc + pj) * size_t(res) * res + size_t(a) * res + b;
+          if (dropped[q]) continue;
+          const uint32_t base = uint32_t((size_t(pi) * pc + pj) * size_t(r1) * r1);
+          const uint32_t p00 = base + uint32_t(a * r1 + b), p01 = p00 + 1, p10 = p00 + uint32_t(r1), p11 = p10 + 1;
+          const Vec3f centre = 0.25f * (pos(p00) + pos(p01) + pos(p10) + pos(p11));
+          struct Side { int da, db; uint32_t p, q; };
+          const Side sides[4] = {{-1, 0, p00, p01}, {1, 0, p10, p11}, {0, -1, p00, p10}, {0, 1, p01, p11}};
+          for (const Side& sd : sides) {
+            int na = a + sd.da, nb = b + sd.db, npi = pi, npj = pj;
+            if (na < 0) na += res, --npi;
+            if (na >= res) na -= res, ++npi;
+            if (nb < 0) nb += res, --npj;
+            if (nb >= res) nb -= res, ++npj;
+            if (npi < 0 || npj < 0 || npi >= pr || npj >= pc) continue;
+            if (!dropped[(size_t(npi) * pc + npj) * size_t(res) * res + size_t(na) * res + nb]) continue;
+            const Vec3f P = pos(sd.p), Q = pos(sd.q), nP = nrm(sd.p), nQ = nrm(sd.q);
+            Vec3f w = 0.5f * (P + Q) - centre;
+            const Vec3f nm = (nP + nQ).normalized();
+            w -= w.dot(nm) * nm;
+            if (!(w.squaredNorm() > 0)) continue;
+            w.normalize();
+            const uint32_t t0 = push(P, w), t1 = push(Q, w), b0 = push(P - thickness * nP, w),
+                           b1 = push(Q - thickness * nQ, w);
+            const bool ccw = (Q - P).cross((Q - thickness * nQ) - P).dot(w) > 0;
+            if (ccw) out.triangles.insert(out.triangles.end(), {t0, t1, b1, t0, b1, b0});
+            else out.triangles.insert(out.triangles.end(), {t0, b1, t1, t0, b0, b1});
+          }
+        }
+  return true;
 }
 
 size_t SurfaceTessellator::point_count() const {
@@ -273,9 +366,10 @@ std::array<int, 4> SurfaceTessellator::patch_cols_of(int patch_j) const { return
 bool SurfaceTessellator::tessellate(std::span<const Vec3f> control, SurfaceBuffers& out) const {
   if (control.size() != size_t(rows_) * size_t(cols_)) return false;
   const size_t n = point_count();
+  // A cut() since changed the triangles (fewer) or added wall points (more points): start afresh.
+  if (out.triangles.size() != triangles_.size() || out.positions.size() != 3 * n) out.triangles = triangles_;
   if (out.positions.size() != 3 * n) out.positions.resize(3 * n);
   if (out.normals.size() != 3 * n) out.normals.resize(3 * n);
-  if (out.triangles.size() != triangles_.size()) out.triangles = triangles_;
   return tessellate(control, out.positions, out.normals);
 }
 

@@ -75,6 +75,14 @@ struct SurfacePoint {
 // changing nothing, when control.size() != rows·cols or rows < 3 or cols < 2.
 bool straighten_grid_ends(std::span<Vec3f> control, int rows, int cols) noexcept;
 
+// Which cells of a rows x cols control grid a cut runs through (docs/models/cutting.md): cell
+// (r, c) lies between control rows r, r+1 and columns c, c+1, index r·(cols−1) + c; `cells`
+// ((rows−1) x (cols−1)) is set to 1 where a cut link (two control points, as TissueSnapshot's
+// cut_links) joins two of the cell's corners, 0 elsewhere. Links that are not between corners of
+// one cell are ignored. noexcept, no allocation; false, changing nothing, on wrong sizes.
+bool grid_cut_cells(int rows, int cols, std::span<const std::array<int, 2>> cut_links,
+                    std::span<std::uint8_t> cells) noexcept;
+
 class SurfaceTessellator {
  public:
   // Fails (an Error saying which value and what was expected) for rows or cols < 2, a
@@ -110,6 +118,17 @@ class SurfaceTessellator {
   // noexcept, no allocation; false, changing nothing, when `normals` has the wrong size.
   bool smooth_border_normals(std::span<float> normals) const noexcept;
 
+  // A cut surface, after tessellate(control, out): the triangles over cut cells (grid_cut_cells)
+  // are dropped, so no triangle bridges a wound, and each border this opens gets a side wall
+  // `thickness` (m) deep against the surface's normals — the cut layer's face, so the wound shows
+  // its edges' thickness. Wall points are appended after point_count() (each with the wall's normal,
+  // facing into the wound). With no cell cut, `out` is left exactly as tessellate made it.
+  // Allocates (like the tessellate above: not for the haptic thread). False on wrong sizes.
+  bool cut(std::span<const std::uint8_t> cells, float thickness, SurfaceBuffers& out) const;
+  // The control-grid cell each output triangle lies over (its sample quad's centre), as
+  // grid_cut_cells numbers them: (#T).
+  std::span<const std::int32_t> triangle_cells() const { return triangle_cell_; }
+
   // The surface at patch (i,j), parameters u, v ∈ [0,1] (u along columns), at any parameter
   // (from the basis polynomials, not the sample tables): for tests and picking, not per frame.
   SurfacePoint evaluate(std::span<const Vec3f> control, int patch_i, int patch_j, float u,
@@ -138,6 +157,7 @@ class SurfaceTessellator {
   SurfaceDef def_;
   Axis u_, v_;                       // u_: along columns, v_: along rows
   std::vector<uint32_t> triangles_;  // (#T x 3)
+  std::vector<std::int32_t> triangle_cell_;  // (#T) the grid cell under each triangle
 };
 
 // Tessellate a control grid once (builds a tessellator; for per-frame use keep one instead).

@@ -66,6 +66,11 @@ struct ChargedModel {
   }
   // Neighbours of particle i into out[0..5]; returns how many (≤ 6).
   int neighbours_of(int i, std::array<int, 6>& out) const noexcept;
+  // The same neighbours in fixed slots (-1 where there is none): slot k is the bit a cut link sets
+  // in ChargedState::cut. Lattices: 0 (c−1), 1 (c+1), 2, 3 the row before, 4, 5 the row after
+  // (columns c0, c0+1); mesh patches: the k-th entry of `neighbours`. Listing the slots that hold a
+  // neighbour in order gives neighbours_of's order.
+  void neighbour_slots(int i, std::array<int, 6>& out) const noexcept;
 };
 
 // A punctured hole: where the tool went through, and whether it is in the hole now.
@@ -91,16 +96,37 @@ struct ChargedStepStats {
   double max_displacement = 0;   // m, largest |position - origin| among active particles
   double indentation = 0;        // m, δ: how far the sphere of influence reaches past the rest surface
   double shaft_in_layer = 0;     // m, length of shaft inside the layer's punctured tracks
+  double edge_in_layer = 0;      // m, length of a blade's edge inside the layer (its drag's length)
+  double presence = 1;           // share of the layer under the tool, [0, 1]: < 1 over an open wound
+  int links_cut = 0;             // neighbour links a blade cut this tick
+  bool cutting = false;          // a blade pressed past cutting_force moved through the layer this tick
+  long blade_jumps = 0;          // blade poses that moved too far in one tick to cut (teleports) since build
   long numeric_resets = 0;       // numerical troubles recovered since build (zero force + reset)
 };
 
+// A particle on a wound's edge (docs/models/cutting.md): its rest position moves from its origin
+// by an offset that eases from `from` to `to` (m) as e^(−elasticity·(t − since)), so the edge parts
+// smoothly, by elastic return, to half the wound's gap away from the cut in the surface's tangent plane.
+struct ChargedWound {
+  std::int32_t particle = -1;
+  float away[3] = {0, 0, 0};  // sum of unit directions away from each cut that took a link of it
+  float from[3] = {0, 0, 0};  // m, the offset at `since`
+  float to[3] = {0, 0, 0};    // m, the offset it eases to
+  double since = 0;           // s, state time the offset last changed course
+};
+
 inline constexpr int kChargedMaxHoles = 16;
+// The most particles on wound edges a state holds (a cut of ~30 m at 1 mm spacing): the wound table
+// is min(n, this) entries, so a million-particle patch does not carry one per particle. Edge
+// particles past it are still cut, but do not part (ChargedState::wound_full counts them).
+inline constexpr size_t kChargedMaxWound = size_t{1} << 16;
 inline constexpr int kChargedEventCapacity = 32;
 
 // Everything that changes while a patch is stepped. Copying it is a snapshot; reset() restores rest.
 struct ChargedState {
   std::vector<float> x, y, z;         // (n) m, particle positions
-  std::vector<std::uint8_t> flags;    // (n) bit 0 active, bit 1 queued, bit 2 charge reversed (hole)
+  std::vector<std::uint8_t> flags;    // (n) bit 0 active, bit 1 queued, bit 2 charge reversed (hole),
+                                      //   bit 3 on a wound's edge (in `wound`), bit 4 scratch (cutting)
   std::vector<std::int32_t> active;   // (n) capacity: particles away from their origin, first active_count
   std::vector<std::int32_t> queue;    // (n) ring: the separation rule's work queue (scratch)
   size_t active_count = 0;
@@ -114,6 +140,21 @@ struct ChargedState {
   bool engaged = false;               // the tool presses the surface (contact held)
   std::int8_t side = 1;               // +1: from the outer side; −1: from inside (two_sided layers)
   ChargedStepStats stats;
+  // Cuts (docs/models/cutting.md). They are the tissue's topology, not its numerical state: reset()
+  // keeps them; clear_cuts() heals the patch.
+  std::vector<std::uint8_t> cut;       // (n) bit k: the link to neighbour slot k is cut (symmetric)
+  std::vector<ChargedWound> wound;     // (min(n, kChargedMaxWound)) the wound's edge particles, first
+                                       //   wound_count, in the order cut (flags bit 3 marks them)
+  std::vector<std::int32_t> wound_index;  // (power of two ≥ 2·wound.size()) open addressing, particle
+                                          //   → its entry in `wound`, −1 empty
+  long wound_full = 0;                 // edge particles that found the wound table full (never, normally)
+  std::vector<std::int32_t> cut_scratch;  // (n) particles whose links were cut this tick (scratch)
+  size_t wound_count = 0;
+  long cut_link_count = 0;             // links cut so far
+  Vec3 blade_heel = Vec3::Zero(), blade_tip = Vec3::Zero();  // m, a blade's edge at the last tick
+  bool blade_valid = false;            // that edge is known (a blade was stepped, finite, last tick)
+  bool cut_stroke = false;             // the last tick cut links (a "cut" event opens a stroke)
+  Vec3 cut_bristle = Vec3::Zero();     // m, the cutting drag's Dahl state, |·| ≤ friction_presliding
   std::array<TissueEvent, kChargedEventCapacity> events{};  // ring of undrained events
   size_t event_head = 0, event_count = 0;
   long events_dropped = 0;
@@ -131,6 +172,10 @@ struct ChargedHip {
   double shaft_length = 0;       // m
   double radius = 0;             // m, the tool's radius (sphere of influence = this + particle radius)
   bool sharp = true;             // a needle punctures at max_displacement; a blunt probe never does
+  // A scalpel: its edge runs from position − axis·edge_length to position; pressed past the
+  // material's cutting_force it cuts the links the edge sweeps through (docs/models/cutting.md).
+  bool blade = false;
+  double edge_length = 0;        // m
 };
 
 // A layer above the one being stepped, read (never written) by its step: its particles press on
@@ -154,12 +199,26 @@ Result<ChargedModel> build_charged_on_mesh(const SurfaceMesh& surface,
 
 // The state at rest for `model` (allocates every scratch array the step will ever need).
 ChargedState make_charged_state(const ChargedModel& model);
-// Back to rest without allocating: positions at origins, no holes, no events, zero force.
+// Back to rest without allocating: positions at origins, no holes, no events, zero force. Cuts are
+// kept (a numerical-trouble reset must not heal a wound): their edges are put at their current
+// opening. clear_cuts() heals them.
 void reset(const ChargedModel& model, ChargedState& state) noexcept;
+// Heal every cut (links joined, wound offsets gone) and reset. Allocation-free.
+void clear_cuts(const ChargedModel& model, ChargedState& state) noexcept;
+// The slot of particle j among i's neighbours (ChargedModel::neighbour_slots), or −1.
+int charged_slot_of(const ChargedModel& model, int i, int j) noexcept;
+// Particle i's wound entry (its rest offset), or null when it is not on a wound's edge.
+const ChargedWound* charged_wound_of(const ChargedState& state, int i) noexcept;
+// Whether the link from particle i to its neighbour slot k is cut.
+inline bool link_cut(const ChargedState& s, int i, int k) noexcept {
+  return (s.cut[static_cast<size_t>(i)] >> k) & 1u;
+}
 
 // One tick of the model, dt seconds (docs/models/charged-particles.md): HIP update, relaxation
 // (elasticity), repulsion, the layers `above` pressing on this one, propagation (separation rule),
-// force. Returns the force of the tissue on the HIP, N. noexcept, allocation-free, deterministic.
+// force; for a blade, the cut of what its edge swept since the last tick and the cutting drag
+// (docs/models/cutting.md). Returns the force of the tissue on the HIP, N. noexcept,
+// allocation-free, deterministic.
 // `tissue` tags the events it emits.
 Vec3 step(const ChargedModel& model, ChargedState& state, const ChargedHip& hip, double dt,
           int tissue = -1, std::span<const ChargedLayer> above = {}) noexcept;

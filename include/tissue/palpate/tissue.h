@@ -58,6 +58,10 @@ struct TissueSnapshot {
   std::vector<Vec3f> loads;                   // N, the external (contact, grasp) load on the point at
                                               // the last step (mass-spring)
   std::vector<std::uint8_t> punctured;        // 1 where the particle's charge is reversed (charged)
+  // Neighbour links a blade cut (charged; docs/models/cutting.md): not in `links`, and no triangle
+  // of `triangles` has one as an edge; a renderer drawing the control grid drops the cells they
+  // lie in (grid_cut_cells in palpate/surface.h). Empty while nothing is cut.
+  std::vector<std::array<int, 2>> cut_links;
 };
 
 // A tissue model instance wired into a scene. `step` is the 1 kHz path: noexcept, no allocation,

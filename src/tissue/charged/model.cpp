@@ -40,7 +40,10 @@ Result<double> check_material(const ChargedMaterialDef& m, double spacing, const
                    "; expected a finite value > 0"};
   for (auto [v, key] : {std::pair{m.elasticity, "elasticity"}, std::pair{m.particle_radius, "particle_radius"},
                         std::pair{m.max_separation, "max_separation"}, std::pair{m.puncture_time, "puncture_time"},
-                        std::pair{m.friction_per_length, "friction_per_length"}})
+                        std::pair{m.friction_per_length, "friction_per_length"},
+                        std::pair{m.cutting_force, "cutting_force"},
+                        std::pair{m.cutting_drag_per_length, "cutting_drag_per_length"},
+                        std::pair{m.wound_gap, "wound_gap"}})
     if (!(std::isfinite(v) && v >= 0))
       return Error{where + ": material '" + key + "' is " + num(v) + "; expected a finite value >= 0"};
   for (auto [v, key] : {std::pair{m.linear_share, "linear_share"}, std::pair{m.snap_share, "snap_share"}})
@@ -83,6 +86,14 @@ void fill_state_arrays(const ChargedModel& m, ChargedState& s) {
   s.flags.assign(n, 0);
   s.active.assign(n, 0);
   s.queue.assign(n, 0);
+  s.cut.assign(n, 0);
+  s.wound.assign(std::min(n, kChargedMaxWound), ChargedWound{});
+  size_t slots = 2;
+  while (slots < 2 * s.wound.size()) slots *= 2;
+  s.wound_index.assign(slots, -1);
+  s.cut_scratch.assign(n, 0);
+  s.wound_count = 0;
+  s.cut_link_count = 0;
 }
 
 }  // namespace
@@ -108,6 +119,43 @@ int ChargedModel::neighbours_of(int i, std::array<int, 6>& out) const noexcept {
       if (cc >= 0 && cc < cols) out[static_cast<size_t>(k++)] = rr * cols + cc;
   }
   return k;
+}
+
+void ChargedModel::neighbour_slots(int i, std::array<int, 6>& out) const noexcept {
+  out.fill(-1);
+  if (layout == ChargedLayout::mesh) {
+    const std::int32_t* nb = neighbours.data() + static_cast<size_t>(i) * 6;
+    for (size_t j = 0; j < 6; ++j) out[j] = nb[j];
+    return;
+  }
+  const int r = i / cols, c = i - r * cols;
+  if (c > 0) out[0] = i - 1;
+  if (c + 1 < cols) out[1] = i + 1;
+  const int c0 = (r & 1) ? c : c - 1;
+  for (int dr : {-1, 1}) {
+    const int rr = r + dr;
+    if (rr < 0 || rr >= rows) continue;
+    for (int cc = c0; cc <= c0 + 1; ++cc)
+      if (cc >= 0 && cc < cols) out[static_cast<size_t>((dr < 0 ? 2 : 4) + (cc - c0))] = rr * cols + cc;
+  }
+}
+
+int charged_slot_of(const ChargedModel& m, int i, int j) noexcept {
+  std::array<int, 6> nb{};
+  m.neighbour_slots(i, nb);
+  for (int k = 0; k < 6; ++k)
+    if (nb[static_cast<size_t>(k)] == j) return k;
+  return -1;
+}
+
+const ChargedWound* charged_wound_of(const ChargedState& s, int i) noexcept {
+  if (s.wound_count == 0) return nullptr;
+  const size_t mask = s.wound_index.size() - 1;
+  for (size_t k = (static_cast<std::uint32_t>(i) * 2654435761u) & mask;; k = (k + 1) & mask) {
+    const std::int32_t w = s.wound_index[k];
+    if (w < 0) return nullptr;
+    if (s.wound[static_cast<size_t>(w)].particle == i) return &s.wound[static_cast<size_t>(w)];
+  }
 }
 
 Result<ChargedModel> build_charged_patch(const PatchDef& p, const ChargedMaterialDef& material,
@@ -377,7 +425,6 @@ void reset(const ChargedModel& model, ChargedState& s) noexcept {
   s.holes.fill(ChargedHole{});
   s.next_hole = 0;
   s.force = Vec3::Zero();
-  s.time = 0;
   s.contact_peak = 0;
   s.give = Vec3::Zero();
   s.give_age = 0;
@@ -388,13 +435,42 @@ void reset(const ChargedModel& model, ChargedState& s) noexcept {
   s.stats.numeric_resets = resets;
   s.event_head = s.event_count = 0;
   s.events_dropped = 0;
+  // Cuts stay: each wound edge is put where its opening has reached, and eases on from there with
+  // the state's clock (which restarts at 0).
+  for (size_t w = 0; w < s.wound_count; ++w) {
+    ChargedWound& wd = s.wound[w];
+    const double age = std::max(0.0, s.time - wd.since), f = std::exp(-model.material.elasticity * age);
+    for (int k = 0; k < 3; ++k) wd.from[k] = static_cast<float>(wd.to[k] + (wd.from[k] - wd.to[k]) * f);
+    wd.since = 0;
+    const auto i = static_cast<size_t>(wd.particle);
+    s.x[i] = model.origin_x[i] + wd.from[0], s.y[i] = model.origin_y[i] + wd.from[1],
+    s.z[i] = model.origin_z[i] + wd.from[2];
+    s.flags[i] |= 1u | 8u;  // active, on a wound's edge: it follows its easing offset
+    s.active[s.active_count++] = wd.particle;
+  }
+  s.time = 0;
+  s.blade_valid = false;
+  s.cut_stroke = false;
+  s.cut_bristle = Vec3::Zero();
+}
+
+void clear_cuts(const ChargedModel& model, ChargedState& s) noexcept {
+  std::fill(s.cut.begin(), s.cut.end(), std::uint8_t{0});
+  std::fill(s.wound_index.begin(), s.wound_index.end(), -1);
+  s.wound_count = 0;
+  s.wound_full = 0;
+  s.cut_link_count = 0;
+  reset(model, s);
 }
 
 size_t charged_bytes_per_particle(const ChargedModel& m) {
   size_t model_bytes = 3 * sizeof(float) + 3 * sizeof(std::int16_t);            // origin, normal
   if (m.layout == ChargedLayout::mesh) model_bytes += 6 * sizeof(std::int32_t);  // neighbours
-  const size_t state_bytes = 3 * sizeof(float) + sizeof(std::uint8_t) + 2 * sizeof(std::int32_t);
-  return model_bytes + state_bytes;  // lattice 39, mesh 63
+  // Positions, flags, the two scratch indices and the cut mask. The wound table (ChargedWound and
+  // its index, at most kChargedMaxWound entries) and the cutting scratch are cold: read only for
+  // particles on a wound's edge or while a blade cuts.
+  const size_t state_bytes = 3 * sizeof(float) + 2 * sizeof(std::uint8_t) + 2 * sizeof(std::int32_t);
+  return model_bytes + state_bytes;  // lattice 40, mesh 64
 }
 
 }  // namespace palpate

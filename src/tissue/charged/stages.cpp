@@ -257,9 +257,13 @@ void propagation(const ChargedModel& m, ChargedState& s, size_t q_head, size_t q
       break;
     }
     const Vec3 pi = s.position(static_cast<size_t>(i));
-    const int count = m.neighbours_of(i, nb);
-    for (int a = 0; a < count; ++a) {
+    // A cut link ties nothing: the slots' order is neighbours_of's, so an uncut patch is visited
+    // exactly as before cutting existed.
+    m.neighbour_slots(i, nb);
+    const unsigned cut = s.cut[static_cast<size_t>(i)];
+    for (int a = 0; a < 6; ++a) {
       const int j = nb[static_cast<size_t>(a)];
+      if (j < 0 || ((cut >> a) & 1u)) continue;
       const auto kj = static_cast<size_t>(j);
       ++s.stats.propagation_visits;
       const Vec3 pj = s.position(kj);
@@ -294,6 +298,10 @@ void relaxation(const ChargedModel& m, ChargedState& s, double dt) noexcept {
   for (size_t a = 0; a < s.active_count;) {
     const int i = s.active[a];
     const auto k = static_cast<size_t>(i);
+    if (s.flags[k] & kWound) {  // a wound's edge: below
+      ++a;
+      continue;
+    }
     const Vec3 o = m.origin(k);
     const Vec3 before = s.position(k);
     const Vec3 d = (before - o) * alpha;
@@ -306,6 +314,15 @@ void relaxation(const ChargedModel& m, ChargedState& s, double dt) noexcept {
       continue;
     }
     ++a;
+  }
+  // A wound's edge returns to its origin moved by its easing offset (docs/models/cutting.md); it
+  // stays in the active set (it is away from its origin for good).
+  for (size_t w = 0; w < s.wound_count; ++w) {
+    const int i = s.wound[w].particle;
+    Vec3 now, to;
+    wound_offset(m, s, s.wound[w], now, to);
+    const Vec3 o = m.origin(static_cast<size_t>(i)) + now;
+    if (alpha != 1.0) set_position(s, i, o + (s.position(static_cast<size_t>(i)) - o) * alpha);
   }
 }
 

@@ -1,7 +1,8 @@
 // stages.h — the charged-particle step's stages and the queries they share (internal): the HIP's
 // tracks (stage 1), relaxation (2), repulsion (3), the layers above pressing (3b), propagation (4),
-// the rest surface under the HIP and the event queue. step.cpp runs them in order and computes the
-// force; docs/models/charged-particles.md has the equations and reasoning.
+// the rest surface under the HIP, the event queue, and cutting (cut.cpp: the links a blade's sweep
+// crosses, the wound's opening, the layer's presence over a wound). step.cpp runs them in order and
+// computes the force; docs/models/charged-particles.md and cutting.md have the equations and reasoning.
 #pragma once
 
 #include <palpate/charged.h>
@@ -189,6 +190,36 @@ void propagation(const ChargedModel& m, ChargedState& s, size_t q_head, size_t q
 // p ← o + (p − o)·exp(−λ·dt), the exact solution of dp/dt = −λ (p − o) over the tick. The same
 // factor for all keeps every neighbour pair within max_separation (a convex combination).
 void relaxation(const ChargedModel& m, ChargedState& s, double dt) noexcept;
+
+// Cutting (cut.cpp; docs/models/cutting.md) ---------------------------------------------------------
+
+inline constexpr std::uint8_t kWound = 8;       // flags bit 3: on a wound's edge (in state.wound)
+inline constexpr std::uint8_t kWoundEdge = 16;  // flags bit 4: scratch mark while a cut is applied
+inline constexpr double kBladeMaxSpeed = 1.0;    // m/s: an edge moving faster in a tick jumped (a teleport)
+inline constexpr double kPresenceKernel = 1.5;   // spacings: the presence kernel's radius
+inline constexpr double kPresenceFull = 0.9;     // share of the rest density that counts as whole tissue
+inline constexpr double kDragOnset = 0.01;       // s: the cutting drag builds no faster than this time constant
+
+// A wound edge's rest offset now (m) and the offset it eases to.
+inline void wound_offset(const ChargedModel& m, const ChargedState& s, const ChargedWound& w, Vec3& now,
+                         Vec3& to) noexcept {
+  const double f = std::exp(-m.material.elasticity * std::max(0.0, s.time - w.since));
+  to = Vec3(w.to[0], w.to[1], w.to[2]);
+  now = to + (Vec3(w.from[0], w.from[1], w.from[2]) - to) * f;
+}
+
+// The share of the layer under a tool whose foot on the rest surface is `foot` (normal `n`), in
+// [0, 1]: the particles' current density around the foot, sideways, over their rest density there,
+// each a sum of the C¹ kernel (1 − r²/ℓ²)², ℓ = kPresenceKernel spacings; full from kPresenceFull of
+// it. 1 on whole tissue; falls smoothly to 0 over an open wound, whose edges moved away. So a tool
+// drawn across a wound feels it give and the edges come back, without a step (docs/models/cutting.md).
+double layer_presence(const ChargedModel& m, const ChargedState& s, const Vec3& foot, const Vec3& n) noexcept;
+
+// Cut every link whose rest segment (origins) crosses the edge's sweep from (heel0, tip0) to
+// (heel1, tip1); the edges of the links cut start to part (wound offsets). Returns how many links
+// were cut. Allocation-free: scratch is the state's cut_scratch.
+int cut_links(const ChargedModel& m, ChargedState& s, const Vec3& heel0, const Vec3& tip0, const Vec3& heel1,
+              const Vec3& tip1) noexcept;
 
 }  // namespace charged
 }  // namespace palpate

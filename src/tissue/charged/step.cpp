@@ -1,6 +1,6 @@
 // step.cpp — the charged-particle step: its stages in order (stages.cpp: HIP update, relaxation,
 // repulsion, propagation by the separation rule), then the force (contact law on the indentation,
-// puncture, snap, track centring and shaft friction).
+// puncture, snap, track centring and shaft friction) and a blade's cut and drag (cut.cpp).
 // Equations and reasoning: docs/models/charged-particles.md.
 #include <palpate/charged.h>
 
@@ -45,6 +45,7 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
   s.stats.contacts = s.stats.pinned = 0;
   s.stats.propagation_visits = s.stats.propagation_moves = s.stats.candidates = 0;
   s.stats.indentation = s.stats.shaft_in_layer = 0;
+  s.stats.edge_in_layer = 0, s.stats.presence = 1, s.stats.links_cut = 0, s.stats.cutting = false;
   const ChargedMaterialDef& mat = m.material;
   const double D = mat.max_displacement;
   if (!hip.position.allFinite() || !hip.axis.allFinite() || !hip.velocity.allFinite() ||
@@ -186,16 +187,70 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
         s.stats.indentation = delta;
         // Puncture: a needle whose indentation reaches max_displacement (Φ(D) = puncture_force);
         // the force of this tick is the law's value there, not past it (a tool that jumped deep).
-        const bool puncture = hip.sharp && delta >= D && !covered;
+        // Over a cut, only the share of the layer still under the tool pushes back (the wound's
+        // gap: none; its edges: the rise back to whole tissue), and a needle in the gap punctures
+        // nothing (docs/models/cutting.md). An uncut patch skips this (bit-identical to before).
+        double presence = 1;
+        if (s.cut_link_count > 0) presence = s.stats.presence = layer_presence(m, s, h - dist * normal, normal);
+        const bool puncture = hip.sharp && delta >= D && !covered && presence >= 0.5;
         // A covered layer at max_displacement under a needle carries its puncture force, no more:
         // it tears as soon as the layer above lets the needle through.
         const double held = hip.sharp && (puncture || covered) ? std::min(delta, D) : delta;
         force = charged_contact_force(mat, held) * normal;
+        if (presence != 1) force *= presence;
         contact_force = force.norm();
         if (puncture) open_hole();
       }
     }
     count_contacts();
+  }
+  // A blade: it cuts what its edge swept through since the last tick while pressed past
+  // cutting_force, and drags while it cuts (docs/models/cutting.md).
+  if (hip.blade) {
+    const double L = hip.edge_length;
+    const bool edge_ok = std::isfinite(L) && L > 0;
+    const Vec3 heel = h - axis * (edge_ok ? L : 0.0);
+    const Vec3 moved = h - s.blade_tip;
+    const double travel = std::max(moved.norm(), (heel - s.blade_heel).norm());
+    const bool jumped = s.blade_valid && !(travel <= kBladeMaxSpeed * dt);
+    if (jumped) ++s.stats.blade_jumps;
+    const bool cutting = edge_ok && s.blade_valid && !jumped && dt > 0 && contact && !near_hole &&
+                         contact_force >= mat.cutting_force;
+    s.stats.cutting = cutting;
+    if (cutting) {
+      const int n = cut_links(m, s, s.blade_heel, s.blade_tip, heel, h);
+      s.stats.links_cut = n;
+      if (n > 0 && !s.cut_stroke) push_event(s, TissueEvent{s.time, "cut", tissue, -dist, contact_force});
+      if (n > 0) s.cut_stroke = true;
+    } else {
+      s.cut_stroke = false;
+    }
+    // The drag: cutting_drag_per_length × the edge's length inside the layer (depth in
+    // [0, thickness] below the rest surface), against the edge's motion along the surface, through
+    // a Dahl bristle (like the shaft's friction) that builds over friction_presliding of travel and
+    // no faster than kDragOnset, and lets go over puncture_time once the blade stops cutting.
+    if (over && edge_ok) {
+      const double d_tip = -dist, d_heel = -dist + L * axis.dot(normal);
+      const double lo = std::min(d_tip, d_heel), hi = std::max(d_tip, d_heel);
+      const double overlap = std::max(0.0, std::min(hi, mat.thickness) - std::max(lo, 0.0));
+      s.stats.edge_in_layer = hi > lo ? overlap / (hi - lo) * L : (lo >= 0 && lo <= mat.thickness ? L : 0.0);
+    }
+    const double z0 = mat.friction_presliding;
+    Vec3 along = Vec3::Zero();
+    if (s.blade_valid && !jumped) along = moved - moved.dot(normal) * normal;
+    const double x = along.norm();
+    const double onset = 1 - std::exp(-dt / kDragOnset);
+    if (cutting) {
+      if (x > 0) s.cut_bristle += (z0 / x * along - s.cut_bristle) * std::min(1 - std::exp(-x / z0), onset);
+    } else {
+      const double tau = mat.puncture_time > 0 ? mat.puncture_time : kDragOnset;
+      s.cut_bristle *= std::exp(-dt / tau);
+    }
+    force -= mat.cutting_drag_per_length * s.stats.edge_in_layer / z0 * s.cut_bristle;
+    s.blade_heel = heel, s.blade_tip = h, s.blade_valid = edge_ok;
+  } else {
+    s.blade_valid = false;
+    s.cut_bristle = Vec3::Zero();
   }
   if (in_track) {
     const double v_axial = hip.velocity.dot(axis);

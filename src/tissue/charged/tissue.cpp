@@ -32,6 +32,8 @@ class ChargedTissue final : public Tissue {
     // only a needle punctures.
     hip.radius = tool.radius;
     hip.sharp = tool.needle;
+    hip.blade = tool.blade;
+    hip.edge_length = tool.blade ? tool.length : 0.0;
     const long resets = state_.stats.numeric_resets;
     const Vec3 f = palpate::step(model_, state_, hip, dt, index_, above_);
     failed_ = state_.stats.numeric_resets != resets;
@@ -79,13 +81,35 @@ class ChargedTissue final : public Tissue {
         if (nb[static_cast<size_t>(k)] > static_cast<int>(i))
           snap.links.push_back({static_cast<int>(i), nb[static_cast<size_t>(k)]});
     }
+    // Cut links are not drawn: listed apart, and the triangles over them dropped.
+    snap.cut_links.clear();
+    if (state_.cut_link_count > 0) {
+      snap.links.clear();
+      for (size_t i = 0; i < n; ++i) {
+        model_.neighbour_slots(static_cast<int>(i), nb);
+        for (int k = 0; k < 6; ++k) {
+          const int j = nb[static_cast<size_t>(k)];
+          if (j <= static_cast<int>(i)) continue;
+          (link_cut(state_, static_cast<int>(i), k) ? snap.cut_links : snap.links).push_back({static_cast<int>(i), j});
+        }
+      }
+      std::erase_if(snap.triangles, [&](const std::array<int, 3>& t) {
+        for (int e = 0; e < 3; ++e) {
+          const int a = t[static_cast<size_t>(e)], b = t[static_cast<size_t>((e + 1) % 3)];
+          const int k = charged_slot_of(model_, a, b);
+          if (k >= 0 && link_cut(state_, a, k)) return true;
+        }
+        return false;
+      });
+    }
     snap.velocities.clear();  // a charged layer's particles carry no velocity
     snap.loads.clear();
     snap.punctured.resize(n);
     for (size_t i = 0; i < n; ++i) snap.punctured[i] = state_.reversed(i) ? 1 : 0;
   }
 
-  void reset() noexcept override { palpate::reset(model_, state_); }
+  // Back to rest for a new run: the cuts heal too (a numerical-trouble reset inside step keeps them).
+  void reset() noexcept override { palpate::clear_cuts(model_, state_); }
 
   void set_layers_above(std::span<Tissue* const> above) override {
     above_.clear();
