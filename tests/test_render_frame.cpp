@@ -139,3 +139,51 @@ TEST(RenderFrame, TheProbeIsABoxOnItsFaceAndItsImagePlaneAnOutlineUnderIt) {
   EXPECT_NEAR((l.points[1] - l.points[0]).norm(), probe.def.width, 1e-6);
   EXPECT_LT(box.opacity, 1.0f) << "see-through: the needle's tip ends under it";
 }
+
+TEST(RenderFrame, ACutLayersFrameHasNoTriangleAcrossItsWound) {
+  // A 6 x 6 grid snapshot with the links across its middle column cut: the frame's surface loses
+  // the triangles over the cut cells and gains the wound's walls (off the surface); uncut, the
+  // same grid draws whole.
+  SceneDef scene;
+  TissueSnapshot snap;
+  const int rows = 6, cols = 6;
+  snap.rows_cols = {rows, cols};
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) snap.points.push_back(Vec3f(0.002f * c, 0.0f, 0.002f * r));
+  // Triangles of the top surface (y = 0) over the cut column (4 mm < x < 6 mm), and wall triangles.
+  const auto count = [](const RenderSurface& s, size_t& over_cut, size_t& walls) {
+    over_cut = walls = 0;
+    for (size_t t = 0; t + 2 < s.triangles.size(); t += 3) {
+      float x = 0, y = 0;
+      for (int k = 0; k < 3; ++k) {
+        x += s.positions[3 * s.triangles[t + k]] / 3;
+        y += s.positions[3 * s.triangles[t + k] + 1] / 3;
+      }
+      if (std::abs(y) < 1e-6f && x > 0.0041f && x < 0.0059f) ++over_cut;
+      if (std::abs(y) > 1e-5f) ++walls;  // (off the surface: against its normals, whichever side that is)
+    }
+  };
+  std::vector<std::vector<float>> storage;
+  std::vector<std::vector<uint32_t>> idx;
+  auto whole = frame_scene(scene, std::span<const TissueSnapshot>(&snap, 1), Vec3(0, 0.01, 0), Vec3::Zero(), {},
+                           storage, idx);
+  ASSERT_TRUE(whole.ok()) << whole.error().message;
+  size_t over = 0, walls = 0;
+  count(whole->surfaces.at(0), over, walls);
+  EXPECT_GT(over, 0u);
+  EXPECT_EQ(walls, 0u);
+  for (int r = 0; r < rows; ++r) snap.cut_links.push_back({r * cols + 2, r * cols + 3});
+  auto cut = frame_scene(scene, std::span<const TissueSnapshot>(&snap, 1), Vec3(0, 0.01, 0), Vec3::Zero(), {},
+                         storage, idx);
+  ASSERT_TRUE(cut.ok()) << cut.error().message;
+  count(cut->surfaces.at(0), over, walls);
+  EXPECT_EQ(over, 0u);
+  EXPECT_GT(walls, 0u);
+  // A link that is not between two corners of one cell (here past the grid) cuts no cell: drawn whole.
+  snap.cut_links = {{0, 1000}};
+  auto odd = frame_scene(scene, std::span<const TissueSnapshot>(&snap, 1), Vec3(0, 0.01, 0), Vec3::Zero(), {},
+                         storage, idx);
+  ASSERT_TRUE(odd.ok()) << odd.error().message;
+  count(odd->surfaces.at(0), over, walls);
+  EXPECT_GT(over, 0u);
+}

@@ -158,6 +158,16 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
         return Error{"frame: tissue " + std::to_string(i) + ": snapshot has " +
                      std::to_string(t.points.size()) + " points, its grid needs " +
                      std::to_string(t.rows_cols[0] * t.rows_cols[1])};
+      if (!t.cut_links.empty()) {
+        // A cut layer: no triangle bridges its wound, whose walls show the layer's thickness.
+        std::vector<std::uint8_t> cells(static_cast<size_t>((t.rows_cols[0] - 1) * (t.rows_cols[1] - 1)), 0);
+        const double thickness = i < scene.tissues.size() && scene.tissues[i].model == "charged_particles"
+                                     ? scene.tissues[i].charged.thickness
+                                     : ChargedMaterialDef{}.thickness;
+        if (!grid_cut_cells(t.rows_cols[0], t.rows_cols[1], t.cut_links, cells) ||
+            !tess->cut(cells, static_cast<float>(thickness), out))
+          return Error{"frame: tissue " + std::to_string(i) + ": its cut links do not fit its grid"};
+      }
       storage.push_back(std::move(out.positions));
       storage.push_back(std::move(out.normals));
       index_storage.push_back(std::move(out.triangles));
