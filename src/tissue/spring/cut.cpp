@@ -183,7 +183,9 @@ PredictorCorrection build_correction(const SpringPredictor& p, const std::vector
     Wd(a, a) = w[static_cast<size_t>(a)];
     for (int b = 0; b < r; ++b) K(a, b) -= w[static_cast<size_t>(a)] * G(a, b);
   }
-  const Eigen::MatrixXd M = Eigen::PartialPivLU<Eigen::MatrixXd>(K).solve(Wd);
+  const Eigen::PartialPivLU<Eigen::MatrixXd> lu(K);
+  c.rcond = lu.rcond();
+  const Eigen::MatrixXd M = lu.solve(Wd);
   c.m.resize(static_cast<size_t>(r) * static_cast<size_t>(r));
   for (int a = 0; a < r; ++a)
     for (int b = 0; b < r; ++b) c.m[static_cast<size_t>(a) * static_cast<size_t>(r) + static_cast<size_t>(b)] = M(a, b);
@@ -213,6 +215,9 @@ struct Package {
   double correction_ms = 0, factor_ms = 0;
   Package* next = nullptr;            // the retired list
 };
+
+// The smallest reciprocal condition of a correction's capacitance matrix kept as a correction.
+constexpr double kMinRcond = 1e-4;
 
 struct Removal {
   int kind = 0;   // 0 spring, 1 tetrahedron
@@ -579,11 +584,24 @@ struct SpringCutter::Impl {
     p->coverage = target;
     apply_log(target);
     std::vector<EdgeWeight> removed = changed();
-    if (static_cast<int>(removed.size()) > options.refactor_rank) {
+    // Woodbury loses the digits the capacitance matrix's conditioning costs: a cut that nearly
+    // detaches a piece makes I − W Uᵀ A⁻¹ U ill-conditioned. Past kMinRcond the step would no longer
+    // be exact to 1e-10, so a new factor is built instead (measured: a random path's correction
+    // reached 1.9e-10 relative before this guard).
+    bool refactor = static_cast<int>(removed.size()) > options.refactor_rank;
+    if (!refactor && !removed.empty() && static_cast<int>(removed.size()) <= options.max_rank) {
+      const auto t0 = std::chrono::steady_clock::now();
+      p->correction = spring::build_correction(factor, anchored, removed);
+      p->correction_ms = ms_since(t0);
+      if (p->correction.rcond < kMinRcond) refactor = true;
+      else return p;
+    }
+    if (refactor) {
       const auto t0 = std::chrono::steady_clock::now();
       SpringNetwork net = base;
       net.stiffness = kp;
       net.damping = damp;
+      p->correction = {};
       auto f = spring::refactor_predictor(net, model.options, factor);
       if (f) {
         p->has_factor = true;

@@ -23,6 +23,7 @@ namespace palpate::spring {
 // Z = A⁻¹ U (n x r).
 struct PredictorCorrection {
   int rank = 0;                           // r, edges corrected
+  double rcond = 1;                       // reciprocal condition estimate of I − W Uᵀ A⁻¹ U (its LU's)
   std::vector<std::array<int, 2>> edge;   // (r) the vertices of each edge, −1 where anchored
   std::vector<double> m;                  // (r x r) row-major M
   // Sparse: V's columns on permuted rows, and D⁻¹ V's values on the same rows.
