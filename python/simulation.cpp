@@ -119,7 +119,10 @@ std::shared_ptr<Core> build_core(const SceneDef& scene, const std::vector<std::s
   o.physics_dt = physics_dt;
   o.stop_after_duration = false;
   for (const std::string& name : drive) {
-    auto dev = std::make_unique<VirtualDevice>(device_limits(name == "probe" && scene.probe ? scene.probe->device : scene.device));
+    const DeviceDef& def = name == "probe" && scene.probe       ? scene.probe->device
+                           : name == "grasper" && scene.grasper ? scene.grasper->device
+                                                                : scene.device;
+    auto dev = std::make_unique<VirtualDevice>(device_limits(def));
     o.devices.push_back({name, dev.get()});
     core->devices.push_back(std::move(dev));
     core->driven.push_back(name);

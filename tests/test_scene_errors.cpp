@@ -24,7 +24,7 @@ TEST(SceneErrors, UnknownKeySuggestsTheClosestAndListsValidKeys) {
   // Far from every key: no suggestion; section keys are listed with the table's.
   EXPECT_EQ(error_of(std::string("colour: red\n") + kOneTissue),
             "s.yaml:1: colour: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, "
-            "anatomy, probe, tissues");
+            "anatomy, probe, grasper, tissues");
   EXPECT_EQ(error_of(std::string("tool: {radus: 0.002}\n") + kOneTissue).substr(0, 57),
             "s.yaml:1: tool.radus: unknown key (did you mean 'radius'?");
 }
@@ -135,7 +135,7 @@ TEST(SceneErrors, EmptyFileAndNonMappingTopLevel) {
   // A short key far from every valid one gets no suggestion.
   EXPECT_EQ(error_of(std::string("<<: {}\n") + kOneTissue),
             "s.yaml:1: <<: unknown key; valid scene keys: name, duration, dt, output, tool, device, camera, anatomy, "
-            "probe, tissues");
+            "probe, grasper, tissues");
   EXPECT_EQ(error_of("just text\n"),
             "s.yaml:1: expected a mapping of scene keys at the top level, got 'just text'");
 }
@@ -196,7 +196,7 @@ TEST(SceneErrors, WaypointDirectionMustBeANonZeroFiniteVector) {
   EXPECT_EQ(error_of(std::string("device:\n  waypoints:\n    - {t: 0, position: [0, 0, 0], diretcion: [0, 1, 0]}\n") +
                      kOneTissue),
             "s.yaml:3: device.waypoints[0].diretcion: unknown key (did you mean 'direction'?); valid waypoint "
-            "keys: t, position, direction");
+            "keys: t, position, direction, grasp");
 }
 
 TEST(SceneErrors, NanAndInfinityAreRejected) {

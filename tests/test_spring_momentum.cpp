@@ -81,8 +81,8 @@ TEST(SpringContact, GraspPullsTheTissueAndItPullsBack) {
   tool.tip = model.network.rest.row(top_centre).transpose() + Vec3(0, 0.0015, 0);
   tool.grasp = true;
   ASSERT_TRUE(step(model, s, &tool));
-  ASSERT_GE(s.grasped_count, 1);
-  EXPECT_EQ(s.grasped[0], top_centre);
+  ASSERT_GE(s.grasp.count, 1);
+  EXPECT_EQ(s.grasp.grasped[0], top_centre);
   for (int i = 0; i < 2000; ++i) {
     tool.tip.y() += 0.003 / 2000;  // lift by 3 mm over 2 s
     ASSERT_TRUE(step(model, s, &tool));
@@ -92,6 +92,6 @@ TEST(SpringContact, GraspPullsTheTissueAndItPullsBack) {
   EXPECT_LT(s.tool_force.y(), 0);  // the tissue pulls the tool down
   tool.grasp = false;
   for (int i = 0; i < 3000; ++i) ASSERT_TRUE(step(model, s, &tool));
-  EXPECT_EQ(s.grasped_count, 0);
+  EXPECT_EQ(s.grasp.count, 0);
   EXPECT_LT(s.x(top_centre, 1) - model.network.rest(top_centre, 1), 0.1 * lifted);
 }

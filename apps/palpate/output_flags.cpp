@@ -40,6 +40,7 @@ void print_scene_inputs(const SceneDef& scene, const std::filesystem::path& cach
                                                           : std::filesystem::absolute(scene.file).string());
   print_device("tool", scene.device);
   if (scene.probe) print_device("probe", scene.probe->device);
+  if (scene.grasper) print_device("grasper", scene.grasper->device);
   if (scene.anatomy) fmt::print("loaded     anatomy: the generated neck (docs/cvc.md)\n");
   const std::filesystem::path cache_dir = cache.empty() ? default_predictor_cache() : cache;
   for (const TissueDef& t : scene.tissues) {

@@ -63,6 +63,9 @@ std::span<const Param<Waypoint>> param_table(const Waypoint*) {
        "direction the needle points at time t, handle to tip; non-zero, normalised on load; "
        "the device reports the shortest-arc rotation from `tool.axis` to it, slerped between waypoints",
        "", "the previous waypoint's (`tool.axis` for the first)"},
+      {"grasp", &D::grasp, 0, 1, "",
+       "the grasp (device button 1) is closed from this waypoint until the next one: a scripted grasper "
+       "holds what it closed on and lets go at the first waypoint without it"},
   };
   return table;
 }
@@ -75,6 +78,16 @@ std::span<const Param<CameraDef>> param_table(const CameraDef*) {
       {"fov", &D::fov, 1.0, 170.0, "degrees", "vertical field of view"},
       {"width", &D::width, 16, 16384, "pixels", "image width"},
       {"height", &D::height, 16, 16384, "pixels", "image height"},
+  };
+  return table;
+}
+
+std::span<const Param<GrasperDef>> param_table(const GrasperDef*) {
+  using D = GrasperDef;
+  static const Param<D> table[] = {
+      {"radius", &D::radius, 1e-4, 0.05, "m",
+       "the closed jaws' reach: presses as a sphere of this radius and grasps the vertices within it "
+       "(and the material's grasp_radius)"},
   };
   return table;
 }
@@ -151,7 +164,10 @@ std::span<const Param<TissueDef>> param_table(const TissueDef*) {
 std::span<const Param<PatchDef>> param_table(const PatchDef*) {
   using D = PatchDef;
   static const Param<D> table[] = {
-      {"shape", &D::shape, 0, 0, "", "surface the patch is laid on", "flat|cylinder|sphere"},
+      {"shape", &D::shape, 0, 0, "",
+       "surface the patch is laid on; mass_spring: flat, a solid sphere, or a gallbladder on the liver's "
+       "underside (at its published size, `center` where the two meet; docs/models/cutting.md)",
+       "flat|cylinder|sphere|gallbladder"},
       {"width", &D::width, 1e-4, 1.0, "m", "extent along the patch's u direction, >= spacing"},
       {"height", &D::height, 1e-4, 1.0, "m", "extent along its v direction, >= spacing"},
       {"spacing", &D::spacing, 1e-5, 0.1, "m",

@@ -30,7 +30,8 @@ void SampleExchange::publish(const ToolSample& v) noexcept {
   std::atomic_thread_fence(std::memory_order_release);
   const double d[kN] = {v.time, double(v.tick), v.position.x(), v.position.y(), v.position.z(),
                         v.orientation.w(), v.orientation.x(), v.orientation.y(), v.orientation.z(),
-                        v.axis.x(), v.axis.y(), v.axis.z(), v.force.x(), v.force.y(), v.force.z()};
+                        v.axis.x(), v.axis.y(), v.axis.z(), v.force.x(), v.force.y(), v.force.z(),
+                        double(v.buttons)};
   for (size_t i = 0; i < kN; ++i) v_[i].store(d[i], std::memory_order_relaxed);
   seq_.store(s + 2, std::memory_order_release);
 }
@@ -53,6 +54,7 @@ ToolSample SampleExchange::read() const noexcept {
   out.orientation = Quat(d[5], d[6], d[7], d[8]);
   out.axis = Vec3(d[9], d[10], d[11]);
   out.force = Vec3(d[12], d[13], d[14]);
+  out.buttons = std::uint32_t(d[15]);
   return out;
 }
 
@@ -164,7 +166,7 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
   }
   // Tool 0: the scene's tool on `device`, its force the tissues'. Each tool holds its pose at
   // start if its first reads fail; the proxy starts where the device is.
-  m.tools.push_back(std::make_unique<Impl::ToolSlot>(LoopTool{"tool", &device, nullptr, settings.ramp_in}, settings.ramp_in));
+  m.tools.push_back(std::make_unique<Impl::ToolSlot>(LoopTool{"tool", &device, nullptr, settings.ramp_in, std::nullopt}, settings.ramp_in));
   auto start_pose = [](Impl::ToolSlot& x) {
     DeviceState at_start;
     if (!x.def.device->read(0.0, at_start) || !at_start.position.allFinite()) return false;
@@ -193,7 +195,18 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
   for (size_t i = 0; i < tools.size(); ++i) {
     const LoopTool& t = tools[i];
     const std::string which = "haptic loop: tool " + std::to_string(i + 1) + " '" + t.name + "'";
-    if (!t.device || !t.model) return Error{which + ": needs a device and a force model"};
+    if (!t.device || (!t.model && !t.tissue_tool)) return Error{which + ": needs a device and a force model"};
+    if (t.tissue_tool) {
+      for (size_t u = 1; u < m.tools.size(); ++u)
+        if (m.tools[u]->def.tissue_tool) return Error{which + ": a second tool already acts on the tissues (one may)"};
+      for (const auto& sl : m.slots)
+        if (sl.worker)
+          return Error{which + ": acts on the tissues, but tissue '" + sl.tissue->name() +
+                       "' is stepped on its own thread (physics_rate > 0); a second tissue tool needs every "
+                       "tissue stepped on the haptic thread"};
+      if (!(t.tissue_tool->radius > 0) || !std::isfinite(t.tissue_tool->radius))
+        return Error{which + ": a tool acting on the tissues needs a radius > 0 m"};
+    }
     if (t.name.empty()) return Error{"haptic loop: tool " + std::to_string(i + 1) + " needs a name"};
     for (size_t u = 1; u < m.tools.size(); ++u)
       if (m.tools[u]->def.name == t.name) return Error{which + ": two tools have that name"};

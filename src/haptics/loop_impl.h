@@ -48,7 +48,7 @@ class SampleExchange {
   ToolSample read() const noexcept;
 
  private:
-  static constexpr size_t kN = 15;
+  static constexpr size_t kN = 16;
   std::atomic<std::uint64_t> seq_{0};
   std::atomic<double> v_[kN] = {};
 };
@@ -84,6 +84,7 @@ struct HapticLoop::Impl {
     RelaxedCount blade_teleport;
     std::uint64_t blade_teleports = 0;  // the loop's own count (the filter's are in `safety`)
     std::uint32_t loop_events = 0;      // SafetyEvent bits the loop set this tick (kEventBladeTeleport)
+    bool grasp = false;                 // a tissue tool's grasp (button 1) as last read well
     SampleExchange sample;
     ToolSlot(const LoopTool& t, double ramp) : def(t), safety(t.device->limits(), ramp) {}
     void publish_counters() noexcept;
@@ -105,6 +106,7 @@ struct HapticLoop::Impl {
     Vec3 f_inline = Vec3::Zero();    // N, the tissues stepped on this thread
     Vec3 f_tissue = Vec3::Zero();    // N, with those rendered from a multi-rate model
     Mat3 j_rendered = Mat3::Zero();  // N/m, the rendered contacts' stiffness
+    Vec3 f_second = Vec3::Zero();    // N, the tissues' force on the tool acting on them beside tool 0
     double force_norm = 0;           // N, |force sent to tool 0|
   };
 

@@ -48,12 +48,14 @@ bool ScriptedDevice::read(double t, DeviceState& out) noexcept {
     out.position = waypoints_.front().position;
     out.orientation = orientations_.front();
     out.velocity.setZero();
+    out.buttons = waypoints_.front().grasp ? 1u : 0u;
     return true;
   }
   if (t >= waypoints_.back().t) {
     out.position = waypoints_.back().position;
     out.orientation = orientations_.back();
     out.velocity.setZero();
+    out.buttons = waypoints_.back().grasp ? 1u : 0u;
     return true;
   }
   // The segment (a, b] that holds t: at a waypoint's own time, the segment that ends there, so the
@@ -67,6 +69,7 @@ bool ScriptedDevice::read(double t, DeviceState& out) noexcept {
   const Waypoint& b = waypoints_[segment_ + 1];
   const double span = b.t - a.t;
   const double s = span > 0 ? (t - a.t) / span : 1.0;
+  out.buttons = a.grasp ? 1u : 0u;  // the jaws as the segment's first waypoint set them
   const Quat& qa = orientations_[segment_];
   const Quat& qb = orientations_[segment_ + 1];
   if (t == b.t) {  // at the waypoint: exactly its position and orientation

@@ -151,6 +151,24 @@ void HapticLoop::Impl::step_tissues(TickState& ts) noexcept {
     if (tip.allFinite() && along.allFinite() && along.norm() > 1e-9) seen.tip = tip, seen.axis = along.normalized();
     break;  // one tool deforms the tissues
   }
+  // The other hand's tool on the tissues (a grasper): posed into each before its step. A failed read
+  // holds its last good pose at rest (read_pose) and its grasp as it was.
+  ToolSlot* second = nullptr;
+  for (size_t i = 1; i < tools.size(); ++i)
+    if (tools[i]->def.tissue_tool) second = tools[i].get();
+  if (second) {
+    const ToolDef& d = *second->def.tissue_tool;
+    if (second->read_fault == TickFault::none) second->grasp = (second->state.buttons & 1u) != 0;
+    ToolState st;
+    st.time = ts.t;
+    st.tip = second->state.position;
+    st.velocity = second->state.velocity;
+    st.axis = needle_axis(d.axis.allFinite() && d.axis.norm() > 0 ? Vec3(d.axis.normalized()) : Vec3(0, -1, 0),
+                          second->state.orientation);
+    st.radius = d.radius;
+    st.grasp = second->grasp;
+    for (Slot& sl : slots) sl.tissue->set_second_tool(st);
+  }
   Vec3 f_rendered = Vec3::Zero();
   for (Slot& sl : slots) {
     std::span<double> figs(row.data() + sl.figure_offset, sl.figure_count);
@@ -165,6 +183,7 @@ void HapticLoop::Impl::step_tissues(TickState& ts) noexcept {
       // A step that reset its tissue returns an ordinary zero: count it and restart the ramp.
       if (sl.tissue->last_step_failed() && ts.fault == TickFault::none) ts.fault = TickFault::step_failed;
       sl.tissue->figures(figs);
+      if (second) ts.f_second += sl.tissue->second_tool_force();
     }
   }
   ts.f_tissue = ts.f_inline + f_rendered;
@@ -188,8 +207,9 @@ void HapticLoop::Impl::render_forces(TickState& ts) noexcept {
   }
   for (size_t i = 1; i < tools.size(); ++i) {
     ToolSlot& x = *tools[i];
-    x.request = x.read_fault == TickFault::none ? x.def.model->force(x.state.position, x.state.orientation, ts.t)
-                                                : Vec3(Vec3::Zero());
+    if (x.read_fault != TickFault::none) x.request = Vec3::Zero();
+    else if (x.def.tissue_tool) x.request = ts.f_second;
+    else x.request = x.def.model->force(x.state.position, x.state.orientation, ts.t);
   }
 }
 
@@ -295,6 +315,7 @@ void HapticLoop::Impl::live_figures(TickState& ts) noexcept {
     smp.orientation = x.state.orientation;
     if (i == 0) smp.axis = tool.axis;
     smp.force = x.sent;
+    smp.buttons = x.def.tissue_tool ? (x.grasp ? 1u : 0u) : x.state.buttons;
     x.sample.publish(smp);
   }
   publish_metrics();

@@ -138,6 +138,12 @@ std::string scene_reference_markdown() {
                                  "Optional: the ultrasound probe held in the other hand (docs/ultrasound.md); "
                                  "needs an `anatomy`. Its `device` section is read like the top-level `device`.",
                                  kProbeSections, {}});
+  render_section<GrasperDef>(out, {"`grasper`",
+                                   "Optional: a grasper held in the other hand, a second tool on the tissues with its "
+                                   "own device and safety filter. It presses mass-spring tissues as a sphere and "
+                                   "grasps while its device's button 1 is down (a waypoint's `grasp`); charged-particle "
+                                   "layers do not feel it. Not with a `probe`; every tissue stepped at the haptic rate.",
+                                   kGrasperSections, {}});
   render_section<TissueDef>(out, {"`tissues[]`",
                                   "Each tissue is a mapping with exactly one of `patch` and `mesh`; "
                                   "names are unique.",

@@ -24,6 +24,9 @@ inline constexpr SectionKey kSceneSections[] = {
     {"camera", "mapping", "optional viewpoint for drawing (section `camera`)"},
     {"anatomy", "mapping", "optional generated anatomy, a neck (section `anatomy`)"},
     {"probe", "mapping", "optional ultrasound probe with its own device (section `probe`); needs `anatomy`"},
+    {"grasper", "mapping",
+     "optional grasper in the other hand, with its own device (section `grasper`): it presses and grasps "
+     "mass-spring tissues as the tool does; not with a `probe`"},
     {"tissues", "list of mappings", "the tissues (section `tissues[]`); at least one, or an `anatomy`"},
 };
 // No key is required at the top level by the table: 'tissues' or 'anatomy' is checked by hand.
@@ -41,6 +44,10 @@ inline constexpr SectionKey kAnatomySections[] = {
 };
 inline constexpr SectionKey kProbeSections[] = {
     {"device", "mapping", "the probe's device, as the top-level `device` (section `device`)"},
+};
+inline constexpr SectionKey kGrasperSections[] = {
+    {"device", "mapping", "the grasper's device, as the top-level `device` (section `device`); its waypoints' "
+                          "`grasp` closes the jaws"},
 };
 inline constexpr const char* kWaypointRequired[] = {"t", "position"};
 

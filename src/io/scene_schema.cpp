@@ -136,6 +136,9 @@ std::string scene_json_schema() {
   json probe = object_schema<ProbeDef>("The ultrasound probe held in the other hand (docs/ultrasound.md).");
   probe["properties"]["device"] = ref("device");
   defs["probe"] = probe;
+  json grasper = object_schema<GrasperDef>("A grasper held in the other hand: a second tool on the tissues.");
+  grasper["properties"]["device"] = ref("device");
+  defs["grasper"] = grasper;
   defs["patch"] = object_schema<PatchDef>("A generated rectangular patch of particles or vertices.");
   defs["mesh"] = object_schema<MeshRef>("A mesh file and how to place it.", kMeshRequired);
   json tissue = object_schema<TissueDef>("A tissue: exactly one of patch and mesh; names are unique.", kTissueRequired);
@@ -156,7 +159,7 @@ std::string scene_json_schema() {
                {"$id", "https://palpate.dev/schema/scene.schema.json"},
                {"title", "palpate scene"}};
   root.update(object_schema<SceneDef>("A palpate scene (docs/scene-format.md)."));
-  for (const char* section : {"tool", "device", "camera", "anatomy", "probe"})
+  for (const char* section : {"tool", "device", "camera", "anatomy", "probe", "grasper"})
     root["properties"][section] = ref(section);
   root["properties"]["tissues"] = {{"type", "array"},
                                    {"description", section_doc(kSceneSections, "tissues")},

@@ -5,6 +5,7 @@
 #include <palpate/tissue.h>
 
 #include <algorithm>
+#include <numbers>
 
 namespace palpate {
 
@@ -128,19 +129,53 @@ void add_probe(const FrameProbe& p, RenderScene& rs, std::vector<std::vector<flo
   rs.lines.push_back(lines);
 }
 
+// A sphere (24 x 12 facets, smooth normals) appended to `storage` and `index_storage`.
+void add_sphere(const FrameSphere& s, RenderScene& rs, std::vector<std::vector<float>>& storage,
+                std::vector<std::vector<uint32_t>>& index_storage) {
+  constexpr int kAround = 24, kUp = 12;
+  std::vector<float> pos, nrm;
+  std::vector<uint32_t> tri;
+  for (int j = 0; j <= kUp; ++j) {
+    const double theta = std::numbers::pi * j / kUp;
+    for (int i = 0; i <= kAround; ++i) {
+      const double phi = 2 * std::numbers::pi * i / kAround;
+      const Vec3 n(std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi));
+      const Vec3 v = s.center + s.radius * n;
+      pos.insert(pos.end(), {float(v.x()), float(v.y()), float(v.z())});
+      nrm.insert(nrm.end(), {float(n.x()), float(n.y()), float(n.z())});
+    }
+  }
+  for (int j = 0; j < kUp; ++j)
+    for (int i = 0; i < kAround; ++i) {
+      const auto a = uint32_t(j * (kAround + 1) + i), b = a + 1, c = a + kAround + 1, d = c + 1;
+      tri.insert(tri.end(), {a, b, c, b, d, c});  // counter-clockwise seen from outside
+    }
+  storage.push_back(std::move(pos));
+  storage.push_back(std::move(nrm));
+  index_storage.push_back(std::move(tri));
+  RenderSurface ball;
+  ball.positions = storage[storage.size() - 2];
+  ball.normals = storage.back();
+  ball.triangles = index_storage.back();
+  ball.color = s.closed ? Vec3f(0.35f, 0.38f, 0.45f) : Vec3f(0.62f, 0.66f, 0.72f);  // steel; darker closed
+  rs.surfaces.push_back(ball);
+}
+
 }  // namespace
 
 Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                                 const Vec3& tip, const Vec3& force, const FrameOptions& options,
                                 std::vector<std::vector<float>>& storage,
                                 std::vector<std::vector<uint32_t>>& index_storage,
-                                const std::optional<Vec3>& tool_axis, const FrameProbe* probe) {
+                                const std::optional<Vec3>& tool_axis, const FrameProbe* probe,
+                                std::span<const FrameSphere> spheres) {
   RenderScene rs;
   rs.camera = scene.camera ? *scene.camera : framing_camera(tissues, tip);
   storage.clear();
   index_storage.clear();
-  storage.reserve(tissues.size() * 2 + 4);  // no reallocation: the surfaces' spans point into it
-  index_storage.reserve(tissues.size() + 2);
+  // No reallocation: the surfaces' spans point into it.
+  storage.reserve(tissues.size() * 2 + 4 + 2 * spheres.size());
+  index_storage.reserve(tissues.size() + 2 + spheres.size());
   for (size_t i = 0; i < tissues.size(); ++i) {
     const TissueSnapshot& t = tissues[i];
     const RoleLook* look = role_look(scene, tissues.size(), i);
@@ -199,6 +234,7 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
     if (options.links && !t.links.empty()) rs.lines.push_back(RenderLines{t.points, t.links});
   }
   if (probe) add_probe(*probe, rs, storage, index_storage);
+  for (const FrameSphere& s : spheres) add_sphere(s, rs, storage, index_storage);
   RenderTool tool;
   tool.kind = scene.tool.kind;
   tool.tip = tip;
@@ -221,10 +257,10 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
 Status render_frame_png(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                         const Vec3& tip, const Vec3& force, const std::filesystem::path& file,
                         const FrameOptions& options, const std::optional<Vec3>& tool_axis,
-                        const FrameProbe* probe) {
+                        const FrameProbe* probe, std::span<const FrameSphere> spheres) {
   std::vector<std::vector<float>> storage;
   std::vector<std::vector<uint32_t>> index_storage;
-  auto rs = frame_scene(scene, tissues, tip, force, options, storage, index_storage, tool_axis, probe);
+  auto rs = frame_scene(scene, tissues, tip, force, options, storage, index_storage, tool_axis, probe, spheres);
   if (!rs) return rs.error();
   return render_png(*rs, file);
 }

@@ -149,7 +149,7 @@ Result<std::unique_ptr<RunExporter>> RunExporter::open(Simulation& sim, const st
                        : t.role == ToolRole::blade        ? "blade"
                                                           : "sphere";
     e->tool_kinds_.push_back(kind);
-    e->tool_radius_.push_back(scene.tool.radius);
+    e->tool_radius_.push_back(t.role == ToolRole::grasper && scene.grasper ? scene.grasper->radius : scene.tool.radius);
     e->tool_length_.push_back(kind == "needle" || kind == "blade" ? scene.tool.length : 0.0);
     if (e->gltf_) {
       if (kind == "box" && scene.probe) {
@@ -159,7 +159,7 @@ Result<std::unique_ptr<RunExporter>> RunExporter::open(Simulation& sim, const st
         const Vec3 half = (lat * (pd.width / 2)).cwiseAbs() + (ax * (h / 2)).cwiseAbs() + (el * (pd.thickness / 2)).cwiseAbs();
         e->gltf_scene_->add_tool(t.name, "box", 0, h, ax, half, {0.75f, 0.78f, 0.82f, 1.0f});
       } else {
-        e->gltf_scene_->add_tool(t.name, kind, scene.tool.radius, scene.tool.length, t.axis, Vec3::Zero(),
+        e->gltf_scene_->add_tool(t.name, kind, e->tool_radius_.back(), e->tool_length_.back(), t.axis, Vec3::Zero(),
                                  {0.80f, 0.82f, 0.86f, 1.0f});
       }
     }

@@ -135,6 +135,7 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
   if (sim.options().snapshots)
     for (size_t i = 0; i < ntissues; ++i) snaps.push_back(sim.snapshot(i));
   const SimulationTool* probe_tool = sim.tool(ToolRole::ultrasound_probe);
+  const SimulationTool* grasper_tool = sim.tool(ToolRole::grasper);
   // The vein (the scene's first `vein` tissue) for the ultrasound images.
   const int vein = nus > 0 && ntissues == scene.tissues.size() && sim.options().snapshots ? sim.tissue_with_role("vein") : -1;
 
@@ -197,8 +198,13 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
       const ToolSample ps = loop_ptr->tool_sample(probe_tool->loop_index);
       probe = FrameProbe{*scene.probe, ps.position, ps.orientation};
     }
+    std::vector<FrameSphere> spheres;  // the grasper in the other hand
+    if (scene.grasper && grasper_tool && loop_ptr) {
+      const ToolSample gs = loop_ptr->tool_sample(grasper_tool->loop_index);
+      spheres.push_back({gs.position, scene.grasper->radius, (gs.buttons & 1u) != 0});
+    }
     if (Status s = render_frame_png(scene, frame_snaps, tool.tip, force, file, options.frame_options, axis,
-                                    probe ? &*probe : nullptr);
+                                    probe ? &*probe : nullptr, spheres);
         !s)
       frame_error = s.error().message;
     else

@@ -17,6 +17,7 @@ const char* tool_role_name(ToolRole role) noexcept {
     case ToolRole::needle: return "needle";
     case ToolRole::blade: return "blade";
     case ToolRole::ultrasound_probe: return "ultrasound_probe";
+    case ToolRole::grasper: return "grasper";
   }
   return "?";
 }
@@ -104,8 +105,16 @@ struct Simulation::Impl {
     for (size_t i = 0; i < tissues.size(); ++i) lt.push_back({tissues[i].get(), physics_dt(i)});
     std::vector<LoopTool> extra;
     for (const SimulationTool& t : tools)
-      if (t.loop_index > 0)
-        extra.push_back({t.name, t.device, t.model, t.device_def ? t.device_def->ramp_in : 0.1});
+      if (t.loop_index > 0) {
+        extra.push_back({t.name, t.device, t.model, t.device_def ? t.device_def->ramp_in : 0.1, std::nullopt});
+        if (t.role == ToolRole::grasper && scene.grasper) {
+          ToolDef g;
+          g.kind = "sphere";
+          g.radius = scene.grasper->radius;
+          g.axis = t.axis;
+          extra.back().tissue_tool = g;
+        }
+      }
     auto built = HapticLoop::create(*tools.front().device, std::move(lt), ls, std::move(extra));
     if (!built) return built.error();
     loop = std::move(*built);
@@ -139,9 +148,10 @@ Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene_in, 
   for (size_t i = 0; i < tissues.size(); ++i)
     if (!tissues[i]) return Error{where + ": tissue " + std::to_string(i) + " is null"};
   for (const DeviceOverride& d : options.devices)
-    if (!d.device || (d.tool != "tool" && !(d.tool == "probe" && scene.probe)))
+    if (!d.device || (d.tool != "tool" && !(d.tool == "probe" && scene.probe) && !(d.tool == "grasper" && scene.grasper)))
       return Error{where + ": a device was handed in for tool '" + d.tool + "', which " +
-                   (d.device ? "the scene does not have (its tools: tool" + std::string(scene.probe ? ", probe" : "") + ")"
+                   (d.device ? "the scene does not have (its tools: tool" + std::string(scene.probe ? ", probe" : "") +
+                                   std::string(scene.grasper ? ", grasper" : "") + ")"
                              : "is null")};
 
   auto settings = scene_loop_settings(scene, options);
@@ -167,6 +177,10 @@ Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene_in, 
   std::vector<Want> wants = {{"tool", "device", role,
                               &m.scene.device, scene.tool.axis}};
   if (probe) wants.push_back({"probe", "probe.device", ToolRole::ultrasound_probe, &m.scene.probe->device, scene.probe->axis});
+  if (scene.grasper) {
+    if (probe) return Error{where + ": grasper: the other hand holds the ultrasound probe or a grasper, not both"};
+    wants.push_back({"grasper", "grasper.device", ToolRole::grasper, &m.scene.grasper->device, Vec3(0, -1, 0)});
+  }
   for (const Want& w : wants) {
     Device* given = m.override_for(w.name);
     if (!given && w.def->kind == "openhaptics" && !options.realtime)

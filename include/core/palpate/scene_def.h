@@ -29,6 +29,8 @@ struct Waypoint {
   // Unit direction the needle points at time t (scene frame); zero = not given: the previous
   // waypoint's direction holds (the scene's tool.axis, i.e. the device at identity, for the first).
   Vec3 direction = Vec3::Zero();
+  // The grasp (device button 1) closed from this waypoint until the next one: a scripted grasper.
+  bool grasp = false;
   int line = 0;                     // where it was read (messages); 0 = not from a file
 };
 
@@ -155,6 +157,16 @@ struct ProbeDef {
   DeviceDef device;               // the second hand's device
 };
 
+// A grasper in the other hand (a second tool on the tissues, with its own device and safety
+// filter): a sphere of `radius` that presses on mass-spring tissues as a probe and grasps while its
+// device's button 1 is down (a scripted waypoint's `grasp`), as the scene's tool does. It retracts
+// what the scene's tool then works on: the gallbladder held up while the blade divides its
+// attachment (data/scenes/gallbladder.yaml).
+struct GrasperDef {
+  double radius = 0.003;          // m, the closed jaws' reach (a 5 mm laparoscopic grasper)
+  DeviceDef device;               // the other hand's device
+};
+
 struct SceneDef {
   std::filesystem::path file;              // where it was read from ("" if from memory)
   std::string name = "scene";
@@ -168,6 +180,7 @@ struct SceneDef {
                                            // Simulation's build), before `tissues`
   bool anatomy_expanded = false;           // whether `tissues` already begins with them
   std::optional<ProbeDef> probe;           // the ultrasound probe (needs `anatomy`)
+  std::optional<GrasperDef> grasper;       // a grasper in the other hand (not with a probe)
   std::vector<TissueDef> tissues;
   // What loads but looks wrong, each naming the file, line and key and what to do (a scripted
   // needle moved sideways to its own shaft): printed by `palpate run` and `view`, scene.warnings
@@ -184,6 +197,7 @@ std::span<const Param<MeshRef>> param_table(const MeshRef*);
 std::span<const Param<SceneDef>> param_table(const SceneDef*);
 std::span<const Param<NeckDef>> param_table(const NeckDef*);
 std::span<const Param<ProbeDef>> param_table(const ProbeDef*);
+std::span<const Param<GrasperDef>> param_table(const GrasperDef*);
 std::span<const Param<TissueDef>> param_table(const TissueDef*);
 std::span<const Param<Waypoint>> param_table(const Waypoint*);
 

@@ -19,6 +19,7 @@
 #include <functional>
 #include <span>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -93,6 +94,11 @@ struct LoopTool {
   Device* device = nullptr;         // its limits() bound its safety filter
   ToolForceModel* model = nullptr;  // force(position, orientation, t) on the haptic thread
   double ramp_in = 0.1;             // s, its forces ramp in from zero at start and after a fault
+  // A tool that acts on the tissues as tool 0 does (a grasper in the other hand; `model` unused):
+  // its shape (kind sphere: radius), posed into every tissue before its step (Tissue::set_second_tool,
+  // device button 1 its grasp), its force the tissues' (Tissue::second_tool_force). At most one, and
+  // only with every tissue stepped on the haptic thread.
+  std::optional<ToolDef> tissue_tool;
 };
 
 // One tool's newest tick, readable from any thread, never torn (a sequence lock the haptic thread
@@ -106,6 +112,7 @@ struct ToolSample {
   Quat orientation = Quat::Identity();   // unit, the device's
   Vec3 axis = Vec3(0, -1, 0);            // unit, the needle's direction (tool 0)
   Vec3 force = Vec3::Zero();             // N, the force sent to its device
+  std::uint32_t buttons = 0;             // its device's buttons (bit 0: a grasper's jaws closed)
 };
 
 // An extra tool's figures (LoopStats::tools).

@@ -123,23 +123,30 @@ struct FrameProbe {
   double height = 0.03;                  // m
 };
 
+// A second tool drawn as a sphere (the grasper in the other hand: the scene's `grasper`).
+struct FrameSphere {
+  Vec3 center = Vec3::Zero();  // m
+  double radius = 0.003;       // m
+  bool closed = false;         // its jaws closed (grasping): drawn darker
+};
+
 // Draw one frame: each tissue's surface (a grid snapshot as the seed's Bézier patches, a
 // triangle snapshot smoothed with PN triangles) coloured by its role when `tissues` are the
 // scene's, in order (scene.tissues[i].role: skin, fat, muscle, vein, artery; other roles get the
 // layer palette by position, as before roles existed), the tool at `tip` (a needle along `tool_axis`,
 // unit, as it pointed at that tick; none = the scene's tool.axis), the force arrow, from the
 // scene's camera (or a camera framing every snapshot when the scene has none), and the probe with
-// its image plane when `probe` is given. Allocates: call it off the haptic thread, from copied
-// snapshots.
+// its image plane when `probe` is given, and `spheres` (the grasper). Allocates: call it off the
+// haptic thread, from copied snapshots.
 Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                                 const Vec3& tip, const Vec3& force, const FrameOptions& options,
                                 std::vector<std::vector<float>>& storage,
                                 std::vector<std::vector<uint32_t>>& index_storage,
                                 const std::optional<Vec3>& tool_axis = std::nullopt,
-                                const FrameProbe* probe = nullptr);
+                                const FrameProbe* probe = nullptr, std::span<const FrameSphere> spheres = {});
 Status render_frame_png(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                         const Vec3& tip, const Vec3& force, const std::filesystem::path& file,
                         const FrameOptions& options = {}, const std::optional<Vec3>& tool_axis = std::nullopt,
-                        const FrameProbe* probe = nullptr);
+                        const FrameProbe* probe = nullptr, std::span<const FrameSphere> spheres = {});
 
 }  // namespace palpate

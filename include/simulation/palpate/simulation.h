@@ -28,14 +28,15 @@ enum class ToolRole : std::uint8_t {
   sphere,           // the HIP of the charged-particle paper: presses, grasps (tool.kind sphere)
   needle,           // punctures; its shaft is felt (tool.kind needle)
   blade,            // a scalpel: presses, and cuts where its edge sweeps (tool.kind blade)
-  ultrasound_probe  // the other hand's linear transducer, pressing the neck (scene `probe`)
+  ultrasound_probe, // the other hand's linear transducer, pressing the neck (scene `probe`)
+  grasper           // the other hand's grasper on the tissues (scene `grasper`)
 };
 const char* tool_role_name(ToolRole role) noexcept;
 
 // One tool of a built simulation. Devices and force models are owned by the Simulation unless the
 // front end handed its own device in (SimulationOptions::devices).
 struct SimulationTool {
-  std::string name;                 // "tool" (the scene's `tool`), "probe" (its `probe`); its CSV prefix
+  std::string name;                 // "tool" (the scene's `tool`), "probe" (its `probe`), "grasper"; its CSV prefix
   ToolRole role = ToolRole::sphere;
   size_t loop_index = 0;            // HapticLoop::tool_sample(loop_index)
   Device* device = nullptr;         // never null

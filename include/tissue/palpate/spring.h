@@ -250,6 +250,18 @@ Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelO
 Result<SpringModel> build_spring_model(SpringNetwork network, const SpringModelOptions& options,
                                        SpringPredictor predictor);
 
+// A tool's grasp (SpringState::grasp): the vertices tied to it on springs and their offsets from its
+// tip when grabbed.
+struct SpringGrasp {
+  static constexpr int kMaxGrasped = 16;
+  std::array<int, kMaxGrasped> grasped{};
+  std::array<Vec3, kMaxGrasped> offset{};
+  int count = 0;
+  bool grasping = false;  // the tool holds (its grasp is on); count > 0 without it: letting go
+  double hold = 0;        // 1 held, down to 0 over grasp_release_time once let go (the springs' share
+                          // of grasp_stiffness is its smoothstep)
+};
+
 // Everything that changes, plus the scratch the step needs (sized at make_state: no allocation later).
 struct SpringState {
   RowMat3d x;       // (n x 3) positions, m
@@ -270,13 +282,15 @@ struct SpringState {
                             // (x, y, z, 0) per vertex, and the block being solved (used one after the other;
                             // the fused sparse step puts the solve's after the spring pass's, both at once)
   // Grasping: vertices attached to the tool and their offsets from the tip when grabbed.
-  static constexpr int kMaxGrasped = 16;
-  std::array<int, kMaxGrasped> grasped{};
-  std::array<Vec3, kMaxGrasped> grasp_offset{};
-  int grasped_count = 0;
-  bool grasping = false;  // the tool holds (its grasp is on); grasped_count > 0 without it: letting go
-  double grasp_hold = 0;  // 1 held, down to 0 over grasp_release_time once let go (the springs' share
-                          // of grasp_stiffness is its smoothstep)
+  static constexpr int kMaxGrasped = SpringGrasp::kMaxGrasped;
+  SpringGrasp grasp;
+  // A second tool in the other hand (Tissue::set_second_tool: a grasper), when has_second_tool: it
+  // grasps as the first does and presses as a probe (an explicit penalty on the vertices inside it,
+  // whatever the contact mode), its own grasp; second_tool_force the force on it after the step.
+  ToolState second_tool;
+  bool has_second_tool = false;
+  SpringGrasp second_grasp;
+  Vec3 second_tool_force = Vec3::Zero();  // N
   // What the last step found.
   // Surface contact: the contact force the last step ended with, on each vertex it acts on (the next
   // step starts with it as an external force, then corrects it), and its size F (N).

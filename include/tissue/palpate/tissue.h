@@ -92,6 +92,11 @@ class Tissue {
   // does off the stepping thread (a cut's correction, a new factor) takes effect when ready and the
   // step never waits for it; otherwise (headless runs, replays) at fixed ticks, so runs repeat exactly.
   virtual void set_real_time(bool real_time) noexcept { (void)real_time; }
+  // A second tool in the other hand that acts on the tissues as the first does (a grasper; the
+  // scene's `grasper`, LoopTool::tissue_tool): posed before each step(), its force read after it. A
+  // model without it ignores the tool and gives it no force.
+  virtual void set_second_tool(const ToolState& tool) noexcept { (void)tool; }
+  virtual Vec3 second_tool_force() const noexcept { return Vec3::Zero(); }
   // Layers stacked in a scene press on each other: a tissue may be pushed by the tissues listed
   // before it (scenes list them from the outside in). `above` are those tissues, live; a model
   // without the coupling ignores them. Not called while the haptic loop steps the tissues.

@@ -214,8 +214,12 @@ Vec3 step(const ChargedModel& m, ChargedState& s, const ChargedHip& hip, double 
     const double travel = std::max(moved.norm(), (heel - s.blade_heel).norm());
     const bool jumped = s.blade_valid && !(travel <= kBladeMaxSpeed * dt);
     if (jumped) ++s.stats.blade_jumps;
-    const bool cutting = edge_ok && s.blade_valid && !jumped && dt > 0 && contact && !near_hole &&
-                         contact_force >= mat.cutting_force;
+    // Once it has parted the layer, a blade drawn along its incision goes on cutting what its edge
+    // meets while its tip stays under the rest surface: the wound no longer holds it at
+    // cutting_force (it has parted), and a scalpel drawn on makes one incision, not a row of nicks.
+    const bool drawn_on = s.cut_stroke && over && dist < 0;
+    const bool cutting = edge_ok && s.blade_valid && !jumped && dt > 0 && !near_hole &&
+                         ((contact && contact_force >= mat.cutting_force) || drawn_on);
     s.stats.cutting = cutting;
     if (cutting) {
       const int n = cut_links(m, s, s.blade_heel, s.blade_tip, heel, h);

@@ -49,9 +49,9 @@ bool BladeCut::surface_normal_near( const Vec3& p, const Vec3& lo, const Vec3& h
 // Where the organ's own surface is over the tip (at rest: the dimple the blade presses and the
 // wound's edges do not count): its surface vertices in [lo, hi] near the line through p along
 // surface_normal_, averaged with weights (1 − d/R)² of their distance d from it (R three spring
-// lengths), so the height moves smoothly as the blade goes along a staircase of elements; false
-// when none is near.
-bool BladeCut::surface_over(const Vec3& p, const Vec3& lo, const Vec3& hi) noexcept {
+// lengths), so the height moves smoothly as the blade goes along a staircase of elements; into
+// `point`, or false (point untouched) when none is near.
+bool BladeCut::surface_over(const Vec3& p, const Vec3& lo, const Vec3& hi, Vec3& point) const noexcept {
   const double R = 6 * reach_;  // (reach_ is half a mean spring)
   Vec3 sum = Vec3::Zero();
   double weights = 0;
@@ -70,7 +70,7 @@ bool BladeCut::surface_over(const Vec3& p, const Vec3& lo, const Vec3& hi) noexc
     weights += w;
   }
   if (!(weights > 0)) return false;
-  surface_point_ = sum / weights;
+  point = sum / weights;
   return true;
 }
 
@@ -98,6 +98,7 @@ void BladeCut::reset() noexcept {
   have_prev_ = false;
   cutting_ = false;
   since_cut_ = 1e9;
+  since_cutting_ = 1e9;
   last_contact_ = 0;
   surface_point_.setZero();
   surface_normal_ = Vec3::UnitY();
@@ -108,6 +109,7 @@ void BladeCut::reset() noexcept {
 
 int BladeCut::cut(const SpringState& s, const ToolState& tool, double dt) noexcept {
   since_cut_ += dt;
+  since_cutting_ += dt;
   const bool valid = tool.blade && tool.length > 0 && std::isfinite(tool.length) && tool.tip.allFinite() &&
                      tool.axis.allFinite() && tool.axis.norm() > 0.5;
   if (!valid) {
@@ -123,15 +125,22 @@ int BladeCut::cut(const SpringState& s, const ToolState& tool, double dt) noexce
   const bool pressed = last_contact_ >= settings_.cutting_force;
   // The organ's surface under the tip (its own, before any cut), while the blade presses or cuts: how
   // deep the edge is in it.
+  // An edge held across the organ (its belly cutting, its tip out beside it: a bed divided under an
+  // organ) is as deep as its deepest point: the middle and the heel count when deeper than the tip.
+  double belly = -std::numeric_limits<double>::infinity();
   if (pressed || cutting_) {
     const Vec3 heel = tool.tip - tool.length * axis;
     const Vec3 m = Vec3::Constant(tool.radius + 6 * reach_);  // (surface_over reaches 6 reach_ around the line)
     const Vec3 lo = tool.tip.cwiseMin(heel) - m, hi = tool.tip.cwiseMax(heel) + m;
     // The surface's direction where the cut begins; then, each tick, the surface over the tip.
     if (!cutting_ && !surface_normal_near(tool.tip, lo, hi)) surface_normal_ = -axis;
-    if (!surface_over(tool.tip, lo, hi) && !cutting_) surface_point_ = tool.tip;
+    if (!surface_over(tool.tip, lo, hi, surface_point_) && !cutting_) surface_point_ = tool.tip;
+    for (const Vec3& p : {Vec3(0.5 * (tool.tip + heel)), heel}) {
+      Vec3 q;
+      if (surface_over(p, lo, hi, q)) belly = std::max(belly, (q - p).dot(surface_normal_));
+    }
   }
-  const double below = (surface_point_ - tool.tip).dot(surface_normal_);
+  const double below = std::max((surface_point_ - tool.tip).dot(surface_normal_), belly);
   // The dimple the blade pressed before the tissue parted is not edge in the organ: it springs back
   // up along the blade over relax_time once cut, so the edge's length in the organ grows smoothly.
   dimple_ *= std::exp(-dt / settings_.relax_time);
@@ -224,8 +233,11 @@ Vec3 BladeCut::felt(const Vec3& contact, const ToolState& tool, double dt) noexc
     want *= settings_.cutting_force / last_contact_;  // held still, pressed: the tissue gives at cutting_force
   }
   // While cutting (and on the way out of it) every change is rate-limited: the wound's walls change
-  // by a whole element when one is removed; the hand feels a ramp, not grit.
-  if (cutting_ || since_cut_ <= settings_.hold_time + 0.1) {
+  // by a whole element when one is removed; the hand feels a ramp, not grit. And the parting and
+  // drag the blade felt while it cut fade at that rate once it stops (an edge slid out along
+  // itself leaves the organ with its drag on).
+  if (cutting_) since_cutting_ = 0;
+  if (cutting_ || since_cut_ <= settings_.hold_time + 0.1 || since_cutting_ <= settings_.hold_time + 0.1) {
     const Vec3 d = want - out_;
     const double limit = settings_.force_rate * dt;
     out_ = d.norm() > limit ? Vec3(out_ + d * (limit / d.norm())) : want;

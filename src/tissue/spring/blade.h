@@ -50,7 +50,7 @@ class BladeCut {
 
  private:
   bool surface_normal_near(const Vec3& p, const Vec3& lo, const Vec3& hi) noexcept;
-  bool surface_over(const Vec3& p, const Vec3& lo, const Vec3& hi) noexcept;
+  bool surface_over(const Vec3& p, const Vec3& lo, const Vec3& hi, Vec3& point) const noexcept;
   const SpringModel& model_;
   SpringCutter& cutter_;
   BladeSettings settings_;
@@ -62,6 +62,7 @@ class BladeCut {
   double dimple_ = 0;                  // m, what of the tip's depth is the dimple (relaxing)
   bool cutting_ = false;
   double since_cut_ = 1e9;             // s since the last removal
+  double since_cutting_ = 1e9;         // s since the blade last cut (cutting_ true)
   double last_contact_ = 0;            // N, |contact force| of the last step
   Vec3 out_ = Vec3::Zero();            // N, the last felt force
   double depth_ = 0;

@@ -477,9 +477,9 @@ void reset(const SpringModel& model, SpringState& s) noexcept {
   s.v.setZero();
   s.time = 0;
   s.has_prev = false;
-  s.grasped_count = 0;
-  s.grasping = false;
-  s.grasp_hold = 0;
+  s.grasp = {};
+  s.second_grasp = {};
+  s.second_tool_force.setZero();
   s.tool_force.setZero();
   s.anchor_force.setZero();
   s.contacts = 0;

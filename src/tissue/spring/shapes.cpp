@@ -86,16 +86,17 @@ TetMesh make_block(const std::vector<double>& xs, const std::vector<double>& ys,
   return m;
 }
 
-TetMesh make_tet_ball(double radius, double spacing) {
-  const int n = static_cast<int>(std::ceil(2 * radius / spacing)) + 1;
-  const Vec3 origin = Vec3::Constant(-0.5 * spacing * (n - 1));
-  const TetMesh block = make_block(n, n, n, spacing, origin);
+namespace {
+
+// The tets of `block` whose centroid `inside(centroid, context)` accepts, vertices renumbered
+// compactly in order of first use.
+TetMesh keep_tets(const TetMesh& block, bool (*inside)(const Vec3&, const void*), const void* context) {
   std::vector<int> renumber(static_cast<size_t>(block.V.rows()), -1);
   std::vector<std::array<int, 4>> kept;
   for (Eigen::Index t = 0; t < block.T.rows(); ++t) {
     Vec3 c = Vec3::Zero();
     for (int k = 0; k < 4; ++k) c += block.V.row(block.T(t, k)).transpose();
-    if ((c / 4).norm() > radius) continue;
+    if (!inside(c / 4, context)) continue;
     kept.push_back({block.T(t, 0), block.T(t, 1), block.T(t, 2), block.T(t, 3)});
   }
   int count = 0;
@@ -113,6 +114,109 @@ TetMesh make_tet_ball(double radius, double spacing) {
   for (size_t t = 0; t < kept.size(); ++t)
     for (int k = 0; k < 4; ++k) m.T(static_cast<Eigen::Index>(t), k) = kept[t][static_cast<size_t>(k)];
   return m;
+}
+
+}  // namespace
+
+TetMesh tet_region(const Vec3& lo, const Vec3& hi, double spacing, bool (*inside)(const Vec3&, const void*),
+                   const void* context) {
+  // Grid lines on the multiples of spacing (a vertex layer on y = 0, and so on), covering [lo, hi].
+  const Vec3 first = (lo / spacing).array().floor().matrix() * spacing;
+  const int nx = static_cast<int>(std::ceil((hi.x() - first.x()) / spacing - 1e-9)) + 1;
+  const int ny = static_cast<int>(std::ceil((hi.y() - first.y()) / spacing - 1e-9)) + 1;
+  const int nz = static_cast<int>(std::ceil((hi.z() - first.z()) / spacing - 1e-9)) + 1;
+  return keep_tets(make_block(nx, ny, nz, spacing, first), inside, context);
+}
+
+TetMesh make_tet_ball(double radius, double spacing) {
+  const int n = static_cast<int>(std::ceil(2 * radius / spacing)) + 1;
+  const Vec3 origin = Vec3::Constant(-0.5 * spacing * (n - 1));
+  return keep_tets(make_block(n, n, n, spacing, origin),
+                   [](const Vec3& c, const void* r) { return c.norm() <= *static_cast<const double*>(r); }, &radius);
+}
+
+namespace {
+
+// The gallbladder's figures (docs/models/cutting.md, "The gallbladder scene").
+constexpr double kGbLength = 0.080;    // m, neck to fundus (fasting: 7–10 cm)
+constexpr double kGbBreadth = 0.030;   // m, at the fundus (3–4 cm; the neck narrower)
+constexpr double kGbDepth = 0.027;     // m (2.4–3.1 cm)
+constexpr double kGbSunk = 0.00675;    // m of its depth in the fossa (a quarter)
+constexpr double kNeckRatio = 0.6;     // the neck's breadth and depth over the fundus's (pear)
+constexpr double kLiverThickness = 0.020;
+constexpr double kLiverEdge = 0.028;   // m, x of the liver's inferior border (the fundus passes it)
+constexpr double kLiverBack = -0.060;  // m, x where the slab ends behind the neck
+constexpr double kLiverHalfWidth = 0.035;
+
+constexpr double kGbAxisY = kGbSunk - 0.5 * kGbDepth;  // its axis: a quarter of its depth above y = 0
+
+bool in_liver(const Vec3& p) {
+  return p.y() >= 0 && p.y() <= kLiverThickness && p.x() >= kLiverBack && p.x() <= kLiverEdge &&
+         std::abs(p.z()) <= kLiverHalfWidth;
+}
+
+// The pear: an ellipsoid along x whose cross-section narrows linearly from the fundus to the neck.
+// 1 on its surface, less inside.
+double pear(const Vec3& p) {
+  const double a = 0.5 * kGbLength;
+  const double u = std::clamp((p.x() + a) / kGbLength, 0.0, 1.0);  // 0 at the neck, 1 at the fundus
+  const double scale = kNeckRatio + (1 - kNeckRatio) * u;
+  const double b = 0.5 * kGbDepth * scale, c = 0.5 * kGbBreadth * scale;
+  const double gx = p.x() / a, gy = (p.y() - kGbAxisY) / b, gz = p.z() / c;
+  return gx * gx + gy * gy + gz * gz;
+}
+
+bool in_gallbladder_bed(const Vec3& p, const void*) { return in_liver(p) || pear(p) <= 1.0; }
+
+double tet_volume6(const RowMat3d& V, const std::array<int, 4>& t) {
+  const Vec3 a = V.row(t[0]).transpose();
+  return (V.row(t[1]).transpose() - a).dot((V.row(t[2]).transpose() - a).cross(V.row(t[3]).transpose() - a));
+}
+
+// The grid's staircase where the gallbladder's own surface is (not the liver's faces nor the bed)
+// moved onto the pear, by at most half a cell, so it is drawn as the organ and not as voxels; a
+// move that would flatten a tetrahedron below a fifth of its volume is undone.
+void snap_to_pear(TetMesh& m, double spacing) {
+  const Eigen::Index n = m.V.rows();
+  std::vector<char> outside(static_cast<size_t>(n), 0);
+  for (const auto& f : boundary_triangles(m))
+    for (int v : f) outside[static_cast<size_t>(v)] = 1;
+  const RowMat3d before = m.V;
+  const Vec3 centre(0, kGbAxisY, 0);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Vec3 p = m.V.row(i).transpose();
+    if (!outside[static_cast<size_t>(i)] || in_liver(p) || std::abs(p.y()) < 1e-9) continue;
+    Vec3 q = p;
+    for (int k = 0; k < 4; ++k) q = centre + (q - centre) / std::sqrt(std::max(pear(q), 1e-12));  // radial scaling
+    const Vec3 d = q - p;
+    const double cap = 0.5 * spacing;
+    m.V.row(i) = (p + (d.norm() > cap ? Vec3(d * (cap / d.norm())) : d)).transpose();
+  }
+  std::vector<std::array<int, 4>> tets(static_cast<size_t>(m.T.rows()));
+  for (Eigen::Index t = 0; t < m.T.rows(); ++t) tets[static_cast<size_t>(t)] = {m.T(t, 0), m.T(t, 1), m.T(t, 2), m.T(t, 3)};
+  for (bool undone = true; undone;) {
+    undone = false;
+    for (const auto& t : tets) {
+      const double v0 = tet_volume6(before, t), v1 = tet_volume6(m.V, t);
+      if (v1 / v0 >= 0.2) continue;
+      for (int v : t)
+        if (m.V.row(v) != before.row(v)) m.V.row(v) = before.row(v), undone = true;
+    }
+  }
+}
+
+}  // namespace
+
+GallbladderBed make_gallbladder_bed(double spacing, const Vec3& offset) {
+  const Vec3 lo(kLiverBack, -kGbDepth, -kLiverHalfWidth), hi(0.5 * kGbLength, kLiverThickness, kLiverHalfWidth);
+  GallbladderBed bed;
+  bed.mesh = tet_region(lo, hi, spacing, in_gallbladder_bed, nullptr);
+  snap_to_pear(bed.mesh, spacing);
+  const double top = bed.mesh.V.rows() > 0 ? bed.mesh.V.col(1).maxCoeff() : 0.0;
+  for (Eigen::Index i = 0; i < bed.mesh.V.rows(); ++i)
+    if (bed.mesh.V(i, 1) > top - 1e-9) bed.held.push_back(static_cast<int>(i));
+  bed.mesh.V.rowwise() += offset.transpose();
+  return bed;
 }
 
 SurfaceMesh make_sheet(const PatchDef& patch) {

@@ -34,6 +34,24 @@ std::vector<std::array<int, 3>> boundary_triangles(const TetMesh& mesh);
 // vertices renumbered compactly. An organ-like tet mesh with an irregular boundary.
 TetMesh make_tet_ball(double radius, double spacing);
 
+// The tets of a make_block grid (of `spacing`, its lines on the multiples of spacing) over [lo, hi]
+// whose centroid `inside(centroid, context)` accepts, vertices renumbered compactly (first use first).
+TetMesh tet_region(const Vec3& lo, const Vec3& hi, double spacing, bool (*inside)(const Vec3&, const void*),
+                   const void* context);
+
+// A gallbladder in its fossa on the liver's underside (data/scenes/gallbladder.yaml; the figures and
+// their sources in docs/models/cutting.md): a pear-shaped body 80 mm long (x: neck at −x, fundus at +x),
+// 30 mm broad (z) and 27 mm deep (y), its upper quarter sunk into a slab of liver 20 mm thick whose
+// underside is the plane y = 0 and whose edge (x = 28 mm) the fundus passes, as it does below the
+// liver's inferior border. Tets of a grid of `spacing` through the origin; `held`: the liver's top
+// face (its ligaments and the diaphragm above hold it). The attachment — the gallbladder's bed — is
+// the grid's springs across y = 0 over the gallbladder's footprint: what a dissection divides.
+struct GallbladderBed {
+  TetMesh mesh;
+  std::vector<int> held;
+};
+GallbladderBed make_gallbladder_bed(double spacing, const Vec3& offset = Vec3::Zero());
+
 // A UV-sphere-like closed surface ("organ" stand-in) with about `vertices` vertices, radius r.
 SurfaceMesh make_ball_surface(int vertices, double radius);
 

@@ -92,6 +92,12 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
     return force;
   }
 
+  void set_second_tool(const ToolState& tool) noexcept override {
+    state_.second_tool = tool;
+    state_.has_second_tool = true;
+  }
+  Vec3 second_tool_force() const noexcept override { return state_.second_tool_force; }
+
   bool last_step_failed() const noexcept override { return failed_; }
   void set_real_time(bool real_time) noexcept override {
     real_time_ = real_time;
@@ -291,9 +297,20 @@ Result<SpringTissueSetup> spring_setup(const SceneDef& scene, int index, const T
     }
     net = make_spring_network(ball, *net_opt, where);
     if (!net) return net.error();
+  } else if (t.patch && t.patch->shape == "gallbladder") {
+    // The gallbladder on the liver's underside (issue 37's scene), at its published size; with no
+    // anchors listed the liver's top face is held.
+    if (!(t.patch->spacing >= 0.001 && t.patch->spacing <= 0.01))
+      return Error{where + ": a gallbladder patch's spacing is " + format_number(t.patch->spacing) +
+                   " m; expected 0.001 to 0.01 m (the organ is 80 mm long)"};
+    spring::GallbladderBed bed = spring::make_gallbladder_bed(t.patch->spacing, t.patch->center);
+    if (t.anchors.empty()) net_opt->anchors = bed.held;
+    net = make_spring_network(bed.mesh, *net_opt, where);
+    if (!net) return net.error();
   } else if (t.patch) {
     if (t.patch->shape != "flat")
-      return Error{where + ": a mass_spring patch must be flat or a sphere (shape '" + t.patch->shape + "'); use a mesh for other shapes"};
+      return Error{where + ": a mass_spring patch must be flat, a sphere or a gallbladder (shape '" + t.patch->shape +
+                   "'); use a mesh for other shapes"};
     net = make_spring_network(spring::make_sheet(*t.patch), *net_opt, where);
     if (!net) return net.error();
   } else {
