@@ -92,6 +92,13 @@ class Tissue {
   // does off the stepping thread (a cut's correction, a new factor) takes effect when ready and the
   // step never waits for it; otherwise (headless runs, replays) at fixed ticks, so runs repeat exactly.
   virtual void set_real_time(bool real_time) noexcept { (void)real_time; }
+  // A replay of a recorded run (docs/models/cutting.md, "Recording and replay"): `installed` is the
+  // recording's `<tissue>.cut_installed` figure, one value a tick from the first: how much of its
+  // off-thread work (a cut's corrections and new factors) the step used at each tick. A headless
+  // replay takes that work in at those same ticks, so it repeats the run tick for tick (a real-time
+  // loop never waits, and does not follow it). Not called while the loop steps; may allocate; an
+  // error for a schedule that is not whole numbers >= 0 rising. Default: nothing to schedule.
+  virtual Status set_install_schedule(std::span<const std::int32_t> installed) { (void)installed; return {}; }
   // Layers stacked in a scene press on each other: a tissue may be pushed by the tissues listed
   // before it (scenes list them from the outside in). `above` are those tissues, live; a model
   // without the coupling ignores them. Not called while the haptic loop steps the tissues.
