@@ -80,6 +80,60 @@ Result<std::vector<RecordedSample>> load_recording_csv(const std::filesystem::pa
   return samples;
 }
 
+Result<std::vector<std::int32_t>> load_recording_counts(const std::filesystem::path& file, std::string_view column) {
+  auto rows = io::CsvRows::open(file, "recording");
+  if (!rows) return rows.error();
+  std::vector<std::string_view> fields;
+  std::vector<std::int32_t> counts;
+  if (!rows->next(fields)) return Error{file.string() + ": recording is empty (expected a header t,tool_x,tool_y,tool_z,...)"};
+  int col = -1, tick_col = -1;
+  for (size_t i = 0; i < fields.size(); ++i) {
+    if (fields[i] == column) col = int(i);
+    if (fields[i] == "tick") tick_col = int(i);
+  }
+  if (col < 0) return counts;
+  const std::string name(column);
+  // A value read as a whole number in [0, 2^31): the recorder prints counts as integers ("12"), and
+  // the {:.9g} of a figure column prints them so too (up to 9 digits).
+  auto whole = [&](int c, const char* what, double& out) -> Status {
+    if (c >= int(fields.size()))
+      return Error{rows->where() + "row has " + std::to_string(fields.size()) + " fields, column '" + what +
+                   "' is number " + std::to_string(c + 1)};
+    const std::string_view text = fields[size_t(c)];
+    if (!io::csv_number(text, out) || !(out >= 0) || out >= 2147483648.0 || out != std::floor(out))
+      return Error{rows->where() + "column '" + what + "': expected a whole number >= 0, got '" + io::printable(text) + "'"};
+    return {};
+  };
+  double last_tick = -1;
+  while (rows->next(fields)) {
+    double v = 0;
+    if (Status st = whole(col, name.c_str(), v); !st) return st.error();
+    const auto value = static_cast<std::int32_t>(v);
+    if (!counts.empty() && value < counts.back())
+      return Error{rows->where() + "column '" + name + "': " + std::to_string(value) + " is below the row before (" +
+                   std::to_string(counts.back()) + "): what took effect is never taken back"};
+    size_t at = counts.size();
+    if (tick_col >= 0) {
+      double tick = 0;
+      if (Status st = whole(tick_col, "tick", tick); !st) return st.error();
+      if (!(tick > last_tick))
+        return Error{rows->where() + "column 'tick': " + fmt::format("{}", tick) + " does not follow tick " +
+                     fmt::format("{}", last_tick) + " (a recording's ticks rise)"};
+      if (tick >= double(counts.size()) + 1e7)  // a hole of hours: not a recording of this run
+        return Error{rows->where() + "column 'tick': " + fmt::format("{}", tick) + " jumps from tick " +
+                     fmt::format("{}", last_tick)};
+      last_tick = tick;
+      at = static_cast<size_t>(tick);
+    }
+    // Ticks the recorder dropped (a real-time run's full ring) hold the value before them: what
+    // took effect during a hole is known only from the first row after it.
+    const std::int32_t before = counts.empty() ? 0 : counts.back();
+    counts.resize(at, before);
+    counts.push_back(value);
+  }
+  return counts;
+}
+
 ReplayDevice::ReplayDevice(std::vector<RecordedSample> samples, DeviceLimits limits)
     : samples_(std::move(samples)), limits_(limits) {
   if (samples_.empty()) samples_.push_back(RecordedSample{});

@@ -209,6 +209,19 @@ Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene_in, 
     m.tools.push_back(std::move(t));
   }
 
+  // A replay of a recorded run: a tissue whose recording says at which tick its off-thread work
+  // (a cut's corrections and new factors) took effect takes it in at those ticks, so the replay
+  // repeats the recorded run's wound and forces tick for tick, a real-time run's too
+  // (docs/models/cutting.md, "Recording and replay").
+  if (!m.override_for("tool") && scene.device.kind == "replay" && !scene.device.recording.empty())
+    for (const auto& t : tissues) {
+      auto installed = load_recording_counts(scene.device.recording, t->name() + ".cut_installed");
+      if (!installed) return installed.error();
+      if (installed->empty()) continue;
+      if (Status s = t->set_install_schedule(*installed); !s)
+        return Error{scene.device.recording.string() + ": column '" + t->name() + ".cut_installed': " + s.error().message};
+    }
+
   // Tissues: linked as layers as built, then (for frames and the viewer) each wrapped so its drawn
   // state is handed to other threads without the stepping thread waiting.
   m.tissues.resize(tissues.size());

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace palpate {
@@ -98,6 +99,14 @@ struct RecordedSample {
 // Read a run's CSV (`palpate run` writes it): a header naming the columns, then one row per tick.
 // Needs t, tool_x, tool_y, tool_z; uses tool_qw..tool_qz and buttons when present.
 Result<std::vector<RecordedSample>> load_recording_csv(const std::filesystem::path& file);
+
+// A run's CSV column of whole counts, one per tick, for a replay to repeat when work done off the
+// stepping thread took effect (a cut's `<tissue>.cut_installed`, docs/models/cutting.md): value i
+// is the row whose `tick` is i (the row's order without a tick column); a tick with no row (a
+// real-time recorder's dropped row) holds the value before it. Empty when the file has no such
+// column. Refused, naming the file and line: a value that is not a whole number >= 0, one below the
+// value before it, a tick that does not rise.
+Result<std::vector<std::int32_t>> load_recording_counts(const std::filesystem::path& file, std::string_view column);
 
 // A recorded session played back tick for tick: read(t) gives the last row at or before t (rows
 // are ticks, so a replay at the recording's tick reproduces it exactly); velocity is the

@@ -52,6 +52,9 @@ class SnapshotTissue final : public Tissue {
   void set_real_time(bool real_time) noexcept override { inner_->set_real_time(real_time); }
   void set_second_tool(const ToolState& tool) noexcept override { inner_->set_second_tool(tool); }
   Vec3 second_tool_force() const noexcept override { return inner_->second_tool_force(); }
+  Status set_install_schedule(std::span<const std::int32_t> installed) override {
+    return inner_->set_install_schedule(installed);
+  }
   void set_layers_above(std::span<Tissue* const> above) override { inner_->set_layers_above(above); }
   const ChargedLayer* charged_layer() const noexcept override { return inner_->charged_layer(); }
   const SpringBody* spring_body() const noexcept override { return inner_->spring_body(); }

@@ -482,6 +482,9 @@ struct SpringCutStatus {
   int correction_rank = 0;       // edges in the installed correction
   int factors = 0;               // new factors installed
   std::uint64_t installs = 0;    // corrections installed
+  int installed = 0;             // removals (springs and tetrahedra, in the order removed) the solve in
+                                 // use covers: recorded per tick (cut_installed), replayed by a schedule
+  int replay_mismatches = 0;     // install() calls whose schedule asked for what the run had not logged
   double last_correction_ms = 0; // the worker's time for the last correction
   double last_factor_ms = 0;     // and for the last new factor
 };
@@ -514,6 +517,15 @@ class SpringCutter {
   // Switch between fixed-latency installs (latency >= 1 ticks) and as-soon-as-ready ones (latency < 0),
   // SpringCutOptions::fixed_latency. Stepping thread, between ticks.
   void set_fixed_latency(int latency) noexcept;
+  // Replays (docs/models/cutting.md, "Recording and replay"): from the next install() call on, the
+  // i-th call installs what covers installed[i] removals — a recorded run's status().installed, tick
+  // by tick — waiting for the worker as fixed_latency does, so the replay's corrections and new
+  // factors take effect at the recorded ticks (the worker builds the same coverages, so the same
+  // corrections and factors). Followed while installs are deterministic (fixed_latency >= 1); past
+  // its end, fixed_latency again. A value past the removals logged when due installs what is logged
+  // (never a wait for removals that will not come) and counts status().replay_mismatches. Stepping
+  // thread, between ticks; allocates the copy. An error for a value < 0 or below the one before.
+  Status set_install_schedule(std::span<const std::int32_t> installed);
   // Per spring / tetrahedron, 1 where removed (read on the stepping thread or while it is paused).
   const std::vector<std::uint8_t>& removed_springs() const noexcept;
   const std::vector<std::uint8_t>& removed_tets() const noexcept;

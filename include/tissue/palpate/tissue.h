@@ -97,6 +97,13 @@ class Tissue {
   // model without it ignores the tool and gives it no force.
   virtual void set_second_tool(const ToolState& tool) noexcept { (void)tool; }
   virtual Vec3 second_tool_force() const noexcept { return Vec3::Zero(); }
+  // A replay of a recorded run (docs/models/cutting.md, "Recording and replay"): `installed` is the
+  // recording's `<tissue>.cut_installed` figure, one value a tick from the first: how much of its
+  // off-thread work (a cut's corrections and new factors) the step used at each tick. A headless
+  // replay takes that work in at those same ticks, so it repeats the run tick for tick (a real-time
+  // loop never waits, and does not follow it). Not called while the loop steps; may allocate; an
+  // error for a schedule that is not whole numbers >= 0 rising. Default: nothing to schedule.
+  virtual Status set_install_schedule(std::span<const std::int32_t> installed) { (void)installed; return {}; }
   // Layers stacked in a scene press on each other: a tissue may be pushed by the tissues listed
   // before it (scenes list them from the outside in). `above` are those tissues, live; a model
   // without the coupling ignores them. Not called while the haptic loop steps the tissues.

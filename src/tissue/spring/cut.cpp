@@ -14,6 +14,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <string>
 #include <thread>
 #include <unordered_map>
 
@@ -267,6 +268,8 @@ struct SpringCutter::Impl {
   int installed_coverage = 0;
   std::uint64_t calls = 0;
   std::vector<int> counts;                // fixed_latency: `logged` at the last fixed_latency calls (ring)
+  std::vector<std::int32_t> schedule;     // a replay's coverage per install() call (set_install_schedule)
+  size_t scheduled = 0;                   // the schedule's next entry
   SpringCutStatus stat;
 
   // Between the threads.
@@ -426,6 +429,7 @@ struct SpringCutter::Impl {
     stat.last_correction_ms = p->correction_ms;
     ++stat.installs;
     installed_coverage = p->coverage;
+    stat.installed = installed_coverage;
     if (installed) retire(installed);
     installed = p;
   }
@@ -782,11 +786,24 @@ bool SpringCutter::install() noexcept {
     // Deterministic: at call c the removals logged before call c − L + 1 take effect (L = 1: those
     // of the tick before, from this tick on), waiting for the worker if it is late (headless runs and
     // replays; never a real-time loop). The ring holds the counts sampled at the last L calls.
-    m.counts[static_cast<size_t>(m.calls % static_cast<std::uint64_t>(L))] = m.logged.load(std::memory_order_relaxed);
-    const int want = m.calls + 1 >= static_cast<std::uint64_t>(L)
-                         ? m.counts[static_cast<size_t>((m.calls + 1) % static_cast<std::uint64_t>(L))]
-                         : 0;
+    const int logged = m.logged.load(std::memory_order_relaxed);
+    m.counts[static_cast<size_t>(m.calls % static_cast<std::uint64_t>(L))] = logged;
+    int want = m.calls + 1 >= static_cast<std::uint64_t>(L)
+                   ? m.counts[static_cast<size_t>((m.calls + 1) % static_cast<std::uint64_t>(L))]
+                   : 0;
     ++m.calls;
+    if (m.scheduled < m.schedule.size()) {
+      // A replay: the recorded run's coverage at this call instead. The worker builds exactly the
+      // coverages asked for, one at a time, as the recorded run's worker did, so each package (its
+      // correction, whether it brings a new factor) is the one the run installed. A run that has
+      // diverged (asked for removals this one never logged, or for less than it has installed) is
+      // counted and goes on with what it has: a wait for removals that will not come would hang.
+      want = m.schedule[m.scheduled++];
+      if (want > logged || want < m.installed_coverage) {
+        ++m.stat.replay_mismatches;
+        want = std::min(want, logged);
+      }
+    }
     if (want > m.installed_coverage) {
       m.requested.store(want, std::memory_order_release);
       while (m.installed_coverage < want && !m.worker_error.load(std::memory_order_relaxed)) {
@@ -825,6 +842,19 @@ void SpringCutter::set_fixed_latency(int latency) noexcept {
   m.options.fixed_latency = latency < 1 ? -1 : std::min(latency, static_cast<int>(m.counts.size()));
   std::fill(m.counts.begin(), m.counts.end(), m.installed_coverage);
   m.calls = 0;
+}
+Status SpringCutter::set_install_schedule(std::span<const std::int32_t> installed) {
+  for (size_t i = 0; i < installed.size(); ++i) {
+    if (installed[i] < 0)
+      return Error{"install schedule: value " + std::to_string(i) + " is " + std::to_string(installed[i]) +
+                   ", expected a count of removals >= 0"};
+    if (i > 0 && installed[i] < installed[i - 1])
+      return Error{"install schedule: value " + std::to_string(i) + " (" + std::to_string(installed[i]) +
+                   ") is below the one before (" + std::to_string(installed[i - 1]) + "): installs only add"};
+  }
+  impl_->schedule.assign(installed.begin(), installed.end());
+  impl_->scheduled = 0;
+  return {};
 }
 const std::vector<std::uint8_t>& SpringCutter::removed_springs() const noexcept { return impl_->spring_removed; }
 const std::vector<std::uint8_t>& SpringCutter::removed_tets() const noexcept { return impl_->tet_removed; }

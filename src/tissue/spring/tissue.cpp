@@ -36,11 +36,14 @@ const std::string kFigureNames[] = {"force_N",          "force_x_N",        "for
                                     "max_displacement_m", "kinetic_energy_J", "anchor_force_N", "contacts",
                                     "resets"};
 // With a blade in the scene, then: springs and tetrahedra removed, removals awaiting their correction,
-// the correction's rank, new factors installed, whether the blade cuts now, teleports refused.
+// the correction's rank, new factors installed, whether the blade cuts now, teleports refused; the
+// removals the solve in use covers (what a replay installs by: docs/models/cutting.md, "Recording
+// and replay") and the ticks a replay's schedule asked for what the replay had not logged.
 const std::string kCutFigureNames[] = {"force_N",          "force_x_N",        "force_y_N",      "force_z_N",
                                        "max_displacement_m", "kinetic_energy_J", "anchor_force_N", "contacts",
                                        "resets",           "cut_springs",      "cut_tets",       "cut_pending",
-                                       "cut_rank",         "cut_factors",      "cutting",        "blade_jumps"};
+                                       "cut_rank",         "cut_factors",      "cutting",        "blade_jumps",
+                                       "cut_installed",    "cut_replay_mismatches"};
 
 // Headless runs and replays install a cut's correction this many ticks after the cut, waiting for
 // the worker if need be, so they repeat exactly (docs/models/cutting.md); a real-time loop does not wait.
@@ -74,6 +77,13 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
       // What the worker has ready takes effect from this tick; then the blade cuts what its edge
       // swept through since the last one (the removed springs pull no more in this tick's step).
       cutter_->install();
+      // A replay whose recording asked for removals this run never logged has left the recorded
+      // run: said once where it starts (the figure counts every such tick).
+      const int mismatches = cutter_->status().replay_mismatches;
+      if (mismatches > mismatches_)
+        if (!mismatched_last_) push_event({tool.time, "cut_replay_mismatch", index_, 0.0, static_cast<double>(mismatches)});
+      mismatched_last_ = mismatches > mismatches_;
+      mismatches_ = mismatches;
       if (blade_ && blade_->cut(state_, tool, dt) > 0) {
         const SpringCutStatus st = cutter_->status();
         push_event({tool.time, "cut", index_, blade_->depth(), static_cast<double>(st.removed_springs)});
@@ -102,6 +112,10 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
   void set_real_time(bool real_time) noexcept override {
     real_time_ = real_time;
     if (cutter_) cutter_->set_fixed_latency(real_time ? -1 : kFixedLatency);
+  }
+  Status set_install_schedule(std::span<const std::int32_t> installed) override {
+    if (!cutter_) return {};  // nothing cuts this organ: nothing to install
+    return cutter_->set_install_schedule(installed);
   }
   ContactComplianceSource* contact_compliance() noexcept override { return this; }
 
@@ -139,7 +153,8 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
       const double cut[] = {static_cast<double>(st.removed_springs), static_cast<double>(st.removed_tets),
                             static_cast<double>(st.pending), static_cast<double>(st.correction_rank),
                             static_cast<double>(st.factors), blade_ && blade_->cutting() ? 1.0 : 0.0,
-                            static_cast<double>(blade_ ? blade_->jumps() : 0)};
+                            static_cast<double>(blade_ ? blade_->jumps() : 0), static_cast<double>(st.installed),
+                            static_cast<double>(st.replay_mismatches)};
       std::copy(std::begin(cut), std::end(cut), out.begin() + static_cast<std::ptrdiff_t>(std::size(kFigureNames)));
     }
   }
@@ -182,7 +197,8 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
   const SpringBody* spring_body() const noexcept override { return &body_; }
 
   // Back to rest, and a cut organ whole again (a new attempt). (A step's own recovery from numerical
-  // trouble, palpate::reset in step(), keeps the wound: it puts back positions, not springs.)
+  // trouble, palpate::reset in step(), keeps the wound: it puts back positions, not springs.) A
+  // replay's install schedule goes with the old cutter: a new attempt is not the recorded run.
   void reset() noexcept override {
     if (uncut_ && cutter_ && cutter_->status().removed_springs + cutter_->status().removed_tets > 0) {
       try {
@@ -220,6 +236,8 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
     auto cutter = SpringCutter::create(model_, cut_options_);
     if (!cutter) return cutter.error();
     cutter_ = std::move(*cutter);
+    mismatches_ = 0;
+    mismatched_last_ = false;
     blade_ = std::make_unique<spring::BladeCut>(model_, *cutter_, blade_settings_);
     if (real_time_) cutter_->set_fixed_latency(-1);
     return {};
@@ -229,6 +247,8 @@ class SpringTissue final : public Tissue, public ContactComplianceSource {
   spring::BladeSettings blade_settings_;
   SpringCutOptions cut_options_;
   bool real_time_ = false;
+  int mismatches_ = 0;            // the cutter's replay_mismatches after the last install
+  bool mismatched_last_ = false;  // the last install was one (a run of them is one event)
   std::unique_ptr<SpringCutter> cutter_;      // the scene's tool is a blade (declared after model_: dies first)
   std::unique_ptr<spring::BladeCut> blade_;
   std::array<TissueEvent, 64> events_{};
