@@ -295,8 +295,9 @@ TEST(ViewScript, PlaysPausesAndStepsTheScenesScriptedTools) {
 // stroke of tests/data/scenes/blade-patch.yaml (in 2 mm, drawn 20 mm along x, lifted out) steps the
 // scene's tissue through SnapshotTissue, as the viewer's loop does, and the view is brought up to
 // date every 20 ticks (a 50 Hz frame). The stroke runs 0.4 mm off the script's z = 0, where a row
-// of the lattice lies in the blade's plane (a link along it touches the swept surface and the cut
-// takes links on both sides of that row): here every cut link crosses one line. While uncut the view is the whole surface;
+// of the lattice lies in the blade's plane (the links from that row touch the swept surface at an
+// end, and the cut takes links on both sides of it): here every cut link crosses one line. While
+// uncut the view is the whole surface;
 // once cut, no drawn surface triangle has corners on both sides of the cut line where the cut
 // runs, the walls are there, the control net shows no cut link; the layout (the index buffer) is
 // made again only on frames whose cut links changed, while the points follow the opening wound;

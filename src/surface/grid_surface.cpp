@@ -253,7 +253,8 @@ bool SurfaceTessellator::cut(std::span<const std::uint8_t> cells, float thicknes
   if (std::none_of(cells.begin(), cells.end(), [](std::uint8_t c) { return c != 0; })) return true;
   SurfaceCutLayout layout;
   if (!cut_layout(cells, layout)) return false;
-  out.positions.resize(3 * layout.point_count()), out.normals.resize(3 * layout.point_count());  // drops an earlier cut()'s walls
+  // Sized for this cut's walls (dropping an earlier cut()'s).
+  out.positions.resize(3 * layout.point_count()), out.normals.resize(3 * layout.point_count());
   if (!cut_walls(layout, thickness, out.positions, out.normals)) return false;
   out.triangles = std::move(layout.triangles);
   return true;
@@ -274,7 +275,8 @@ bool SurfaceTessellator::cut_layout(std::span<const std::uint8_t> cells, Surface
   for (size_t q = 0; q < quads; ++q) dropped[q] = cells[size_t(triangle_cell_[2 * q])] != 0;
   layout.triangles.clear();
   for (size_t q = 0; q < quads; ++q)
-    if (!dropped[q]) layout.triangles.insert(layout.triangles.end(), triangles_.begin() + 6 * q, triangles_.begin() + 6 * q + 6);
+    if (!dropped[q])
+      layout.triangles.insert(layout.triangles.end(), triangles_.begin() + 6 * q, triangles_.begin() + 6 * q + 6);
   // A kept quad's side against a dropped one (in its patch or the next) gets a wall: four points
   // after the surface's, slots (top p, top q, bottom p, bottom q) as cut_walls fills them.
   const int pc = patch_cols_, pr = patch_rows_;

@@ -16,7 +16,8 @@ void vertex_normals(const TissueSnapshot& s, std::vector<Vec3f>& out) {
   for (const auto& t : s.triangles) {
     if (t[0] < 0 || t[1] < 0 || t[2] < 0 || t[0] >= n || t[1] >= n || t[2] >= n) continue;
     const Vec3f& a = s.points[static_cast<size_t>(t[0])];
-    const Vec3f face = (s.points[static_cast<size_t>(t[1])] - a).cross(s.points[static_cast<size_t>(t[2])] - a);
+    const Vec3f face =
+        (s.points[static_cast<size_t>(t[1])] - a).cross(s.points[static_cast<size_t>(t[2])] - a);
     for (int k : t) out[static_cast<size_t>(k)] += face;
   }
 }
@@ -29,7 +30,9 @@ void net_without_cuts(TissueView& view, std::span<const std::array<int, 2>> cut_
   for (const auto& [i, j] : cut_links) cut.push_back({std::min(i, j), std::max(i, j)});
   std::sort(cut.begin(), cut.end());
   view.grid_links = grid_lines(view.rows, view.cols);
-  std::erase_if(view.grid_links, [&](const std::array<int, 2>& s) { return std::binary_search(cut.begin(), cut.end(), s); });
+  std::erase_if(view.grid_links, [&](const std::array<int, 2>& s) {
+    return std::binary_search(cut.begin(), cut.end(), s);
+  });
 }
 
 }  // namespace
@@ -67,7 +70,8 @@ bool update_view(TissueView& view, const TissueSnapshot& s, int resolution, floa
     view.pn.reset();
     return false;
   }
-  if (!view.pn || view.pn->vertex_count() != static_cast<int>(n) || view.mesh_triangles != s.triangles.size()) {
+  if (!view.pn || view.pn->vertex_count() != static_cast<int>(n) ||
+      view.mesh_triangles != s.triangles.size()) {
     auto built = PnTessellator::build(static_cast<int>(n), s.triangles, 3);
     if (!built) {
       view.pn.reset();

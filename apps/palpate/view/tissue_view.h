@@ -18,13 +18,13 @@ namespace palpate::view {
 // allocation-free. A grid's wound is laid out again (new triangles, the net without its cut
 // segments) only when the snapshot's cut links change.
 struct TissueView {
-  std::optional<GridDrawing> grid;         // rows_cols snapshots: Bézier patches over the particles
-  std::optional<PnTessellator> pn;         // triangle snapshots: PN triangles over the mesh
-  size_t mesh_triangles = 0;               // triangle count the PN tessellator was built for
+  std::optional<GridDrawing> grid;  // rows_cols snapshots: Bézier patches over the particles
+  std::optional<PnTessellator> pn;  // triangle snapshots: PN triangles over the mesh
+  size_t mesh_triangles = 0;        // triangle count the PN tessellator was built for
   std::vector<float> pn_positions, pn_normals;  // (#P x 3) the PN surface, m and unit
-  std::vector<Vec3f> vertex_normals;       // (#points) area-weighted, PN input
-  std::vector<std::array<int, 2>> grid_links;  // the control net's segments, less the cut links
-  std::uint64_t grid_links_layout = 0;     // the grid's layout_revision() grid_links were made for
+  std::vector<Vec3f> vertex_normals;            // (#points) area-weighted, PN input
+  std::vector<std::array<int, 2>> grid_links;   // the control net's segments, less the cut links
+  std::uint64_t grid_links_layout = 0;  // the grid's layout_revision() grid_links were made for
   int rows = 0, cols = 0;
 
   // The drawn surface: (#P x 3) positions (m), normals (unit) and (#T x 3) triangles.
