@@ -1,11 +1,13 @@
 // test_surface_cut.cpp — a grid surface with a cut (src/surface/grid_surface.cpp: grid_cut_cells,
 // SurfaceTessellator::cut; docs/models/cutting.md): which cells a cut link marks, which triangles
-// go, the walls along what is left, and nothing changed where nothing is cut — for both schemes.
+// go, the walls along what is left, and nothing changed where nothing is cut — for both schemes;
+// GridDrawing, the same drawn every frame with the cut laid out only when it changes.
 #include <palpate/surface.h>
 
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <vector>
 
 namespace {
@@ -91,6 +93,70 @@ TEST(SurfaceCut, TrianglesOverCutCellsGoAndWallsLineWhatIsLeft) {
     EXPECT_EQ(out.triangles, whole.triangles);
     EXPECT_EQ(out.positions, whole.positions);
   }
+}
+
+TEST(SurfaceCut, AGridDrawingIsTheOneOffCutAndLaysItOutAgainOnlyWhenTheCutChanges) {
+  // A wavy 10 x 12 grid (so that normals and walls differ from point to point), cut along the
+  // links between control rows 4 and 5 over columns 2..7.
+  const int rows = 10, cols = 12;
+  std::vector<Vec3f> points = flat_grid(rows, cols);
+  for (Vec3f& p : points) p.y() = 0.0004f * std::sin(900.0f * p.x()) * std::cos(700.0f * p.z());
+  std::vector<std::array<int, 2>> links;
+  for (int c = 2; c <= 7; ++c) links.push_back({4 * cols + c, 5 * cols + c});
+  const float thickness = 0.002f;
+  const SurfaceDef def{SurfaceScheme::bezier, 5};
+  // What a frame draws in one go: straightened ends, tessellated, border normals shared, cut().
+  const auto one_off = [&](const std::vector<Vec3f>& pts, std::span<const std::array<int, 2>> cut) {
+    auto t = SurfaceTessellator::build(rows, cols, def);
+    SurfaceBuffers out;
+    std::vector<Vec3f> control = pts;
+    straighten_grid_ends(control, rows, cols);
+    EXPECT_TRUE(t->tessellate(control, out) && t->smooth_border_normals(out.normals));
+    std::vector<std::uint8_t> cells(size_t((rows - 1) * (cols - 1)));
+    EXPECT_TRUE(grid_cut_cells(rows, cols, cut, cells) && t->cut(cells, thickness, out));
+    return out;
+  };
+  auto d = GridDrawing::build(rows, cols, def);
+  ASSERT_TRUE(d.ok()) << d.error().message;
+  const auto same = [&](const SurfaceBuffers& want) {
+    EXPECT_EQ(std::vector<float>(d->positions().begin(), d->positions().end()), want.positions);
+    EXPECT_EQ(std::vector<float>(d->normals().begin(), d->normals().end()), want.normals);
+    EXPECT_EQ(std::vector<uint32_t>(d->triangles().begin(), d->triangles().end()), want.triangles);
+  };
+  // Uncut: the whole surface, laid out once at build.
+  ASSERT_TRUE(d->draw(points, {}, thickness));
+  same(one_off(points, {}));
+  EXPECT_EQ(d->layout_revision(), 0u);
+  EXPECT_EQ(d->triangles().size(), d->tessellator().triangles().size());
+  // Cut: laid out again, and the same as the one-off cut, walls and all.
+  ASSERT_TRUE(d->draw(points, links, thickness));
+  same(one_off(points, links));
+  EXPECT_EQ(d->layout_revision(), 1u);
+  EXPECT_GT(d->positions().size(), 3 * d->tessellator().point_count()) << "walls were added";
+  // The surface moves (the wound opens), the cut stays: the layout and its index buffer stay
+  // (the same array, not reallocated), the points — the walls' too — follow the surface.
+  const uint32_t* indices = d->triangles().data();
+  const std::vector<float> before(d->positions().begin(), d->positions().end());
+  for (Vec3f& p : points) p.z() += p.z() > 0.0045f ? 0.0005f : -0.0005f;
+  ASSERT_TRUE(d->draw(points, links, thickness));
+  same(one_off(points, links));
+  EXPECT_EQ(d->layout_revision(), 1u);
+  EXPECT_EQ(d->triangles().data(), indices);
+  const size_t n = 3 * d->tessellator().point_count();
+  EXPECT_FALSE(std::equal(before.begin() + long(n), before.end(), d->positions().begin() + long(n)))
+      << "the walls moved with the surface";
+  // A longer cut: laid out again; healed (no cut links): the whole surface again.
+  links.push_back({4 * cols + 8, 5 * cols + 8});
+  ASSERT_TRUE(d->draw(points, links, thickness));
+  same(one_off(points, links));
+  EXPECT_EQ(d->layout_revision(), 2u);
+  ASSERT_TRUE(d->draw(points, {}, thickness));
+  same(one_off(points, {}));
+  EXPECT_EQ(d->layout_revision(), 3u);
+  // Wrong sizes: refused, the last drawing kept.
+  points.pop_back();
+  EXPECT_FALSE(d->draw(points, {}, thickness));
+  EXPECT_EQ(d->layout_revision(), 3u);
 }
 
 }  // namespace

@@ -70,6 +70,30 @@ int yellow_pixels(const Png& png) {
   return n;
 }
 
+// Background pixels the tissue encloses: tissue (pink to dark brown: red over green and blue) within
+// `reach` pixels above, below, left and right of each. The uncut sheet, seen whole from above its
+// edge, encloses none; a wound drawn open shows the background through it.
+int enclosed_background(const Png& png, int reach) {
+  const auto tissue = [&](int x, int y) {
+    const unsigned char* p = png.at(x, y);
+    return p[0] > p[1] + 10 && p[0] > p[2] + 10;
+  };
+  const auto finds = [&](int x, int y, int dx, int dy) {
+    for (int k = 1; k <= reach; ++k) {
+      const int u = x + k * dx, v = y + k * dy;
+      if (u < 0 || v < 0 || u >= png.width || v >= png.height) return false;
+      if (tissue(u, v)) return true;
+    }
+    return false;
+  };
+  int n = 0;
+  for (int y = 0; y < png.height; ++y)
+    for (int x = 0; x < png.width; ++x)
+      n += is_background(png.at(x, y)) && finds(x, y, 0, -1) && finds(x, y, 0, 1) && finds(x, y, -1, 0) &&
+           finds(x, y, 1, 0);
+  return n;
+}
+
 double number_after(const std::string& text, const std::string& key) {
   const size_t at = text.find(key);
   if (at == std::string::npos) return std::nan("");
@@ -526,4 +550,26 @@ TEST_F(View, ABladesScriptedStrokePlaysInTheViewerWithoutAJump) {
   EXPECT_LT((exit_tool(r.out) - Vec3(-0.01 + 0.7 * 0.02, -0.002, 0)).norm(), 1e-5) << r.out;
   EXPECT_GT(number_after(r.out, "force_N:"), 0.01) << r.out;
   EXPECT_EQ(number_after(r.out, "blade_teleport:"), 0.0) << r.out;
+}
+
+// Issue 37: the viewer draws the wound the blade's stroke cuts (tests/data/scenes/blade-patch.yaml):
+// played to 2 s (the stroke done, the wound open) the layer is drawn open along the cut, the
+// background showing through it between the wound's walls; before the blade cuts (0.25 s) the
+// sheet is drawn whole. (Which triangles are drawn: ViewTissue in test_view_parts.cpp.)
+TEST_F(View, ABladesWoundIsDrawnOpenTheBackgroundShowsThroughIt) {
+  int enclosed[2] = {0, 0};
+  const char* times[2] = {"0.25", "2.0"};
+  for (int k = 0; k < 2; ++k) {
+    const fs::path shot = dir_ / (std::string("wound_") + times[k] + ".png");
+    Ran r = view(std::string(PALPATE_TEST_DATA_DIR) + "/scenes/blade-patch.yaml --frames 2 --exit --no-panels --no-report"
+                 " --play-to " + times[k] + " --overrun-margin 0.05 --width 640 --height 480 --screenshot '" +
+                 shot.string() + "'");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const Png png = load_png(shot);
+    ASSERT_EQ(png.width, 640);
+    enclosed[k] = enclosed_background(png, 80);
+  }
+  EXPECT_EQ(enclosed[0], 0) << "uncut, the sheet is whole";
+  EXPECT_GT(enclosed[1], 200) << "the background shows through the open wound";
+  std::printf("enclosed background pixels: %d uncut, %d cut\n", enclosed[0], enclosed[1]);
 }

@@ -1,6 +1,7 @@
 // test_view_parts.cpp — the viewer's GUI-free parts: the orbit camera's geometry, ray picking, the
 // needle tilted by a mouse drag, and SnapshotTissue's hand-over of positions from a stepping
-// thread to a reading thread; the player of a scene's scripted tools.
+// thread to a reading thread; the player of a scene's scripted tools; a tissue's drawn surface,
+// a blade's wound in it included.
 #include <gtest/gtest.h>
 
 // The viewer lives in the app (it links GUI libraries the test binary must not); these two
@@ -8,12 +9,17 @@
 #include "../apps/palpate/view/camera.cpp"
 #include "../apps/palpate/view/tool_tilt.cpp"
 #include "../apps/palpate/view/script_player.cpp"
+#include "../apps/palpate/view/tissue_view.cpp"
+#include <palpate/render.h>
+#include <palpate/tissue_files.h>
 #include <palpate/scene.h>
 #include <palpate/device.h>
 #include <palpate/snapshot_tissue.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <set>
 #include <thread>
 
 namespace {
@@ -283,6 +289,148 @@ TEST(ViewScript, PlaysPausesAndStepsTheScenesScriptedTools) {
     EXPECT_FALSE(m.has_script());
     EXPECT_NE(m.error().find("/nonexistent/path.csv"), std::string::npos) << m.error();
   }
+}
+
+// Issue 37: the viewer draws a cut charged layer's wound as the run's frames do. The scripted
+// stroke of tests/data/scenes/blade-patch.yaml (in 2 mm, drawn 20 mm along x, lifted out) steps the
+// scene's tissue through SnapshotTissue, as the viewer's loop does, and the view is brought up to
+// date every 20 ticks (a 50 Hz frame). The stroke runs 0.4 mm off the script's z = 0, where a row
+// of the lattice lies in the blade's plane (the links from that row touch the swept surface at an
+// end, and the cut takes links on both sides of it): here every cut link crosses one line. While
+// uncut the view is the whole surface;
+// once cut, no drawn surface triangle has corners on both sides of the cut line where the cut
+// runs, the walls are there, the control net shows no cut link; the layout (the index buffer) is
+// made again only on frames whose cut links changed, while the points follow the opening wound;
+// and the view equals the frame the run would draw of the same snapshot.
+TEST(ViewTissue, ABladesWoundInAChargedLayerIsDrawnWithNoTriangleAcrossItAndRelaidOnlyWhenTheCutChanges) {
+  using namespace palpate;
+  auto scene = load_scene(std::string(PALPATE_TEST_DATA_DIR) + "/scenes/blade-patch.yaml");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  auto made = make_tissue(*scene, 0);
+  ASSERT_TRUE(made.ok()) << made.error().message;
+  SnapshotTissue tissue(std::move(*made));
+  const float depth = static_cast<float>(wound_wall_depth(*scene, 0));
+  EXPECT_EQ(depth, static_cast<float>(scene->tissues[0].charged.thickness));
+  const int resolution = 6;
+  view::TissueView v;
+  const TissueSnapshot& rest = tissue.latest();
+  ASSERT_TRUE(view::update_view(v, rest, resolution, depth));
+  ASSERT_TRUE(v.grid.has_value());
+  EXPECT_EQ(v.triangles().size(), v.grid->tessellator().triangles().size()) << "uncut: the whole surface";
+  EXPECT_EQ(v.grid_links.size(), size_t(v.rows * (v.cols - 1) + (v.rows - 1) * v.cols));
+  const std::vector<Vec3f> rest_points = rest.points;
+
+  ToolState tool;
+  tool.blade = true, tool.radius = scene->tool.radius, tool.length = scene->tool.length;
+  tool.axis = scene->tool.axis.normalized();
+  const double z_path = 0.0004;
+  const auto at = [&](double t) {  // the scene's waypoints, z off the row at 0
+    const Vec3 a(-0.01, 0.005, z_path), b(-0.01, -0.002, z_path), c(0.01, -0.002, z_path), d(0.01, 0.005, z_path);
+    if (t < 0.3) return Vec3(a + (b - a) * (t / 0.3));
+    if (t < 1.3) return Vec3(b + (c - b) * (t - 0.3));
+    if (t < 1.6) return Vec3(c + (d - c) * ((t - 1.3) / 0.3));
+    return d;
+  };
+  size_t frames = 0, cut_changes = 0, relaid = 0;
+  std::uint64_t revision = v.grid->layout_revision();
+  std::vector<std::array<int, 2>> last_cut;
+  const std::uint32_t* indices = nullptr;
+  std::vector<float> last_positions;
+  size_t moved_while_same_cut = 0;
+  for (int k = 1; k <= 2000; ++k) {  // 2 s: the stroke, then 0.4 s for the wound to open
+    tool.time = k * 0.001;
+    tool.tip = at(tool.time);
+    ASSERT_TRUE(tissue.step(tool, 0.001).allFinite());
+    if (k % 20 != 0) continue;
+    const TissueSnapshot& s = tissue.latest();
+    ASSERT_TRUE(view::update_view(v, s, resolution, depth));
+    ++frames;
+    const bool changed = s.cut_links != last_cut;
+    cut_changes += changed;
+    relaid += v.grid->layout_revision() != revision;
+    if (!changed && v.grid->layout_revision() == revision && !s.cut_links.empty()) {
+      // The same cut: the same index buffer (not even reallocated); the points move with the wound.
+      EXPECT_EQ(v.triangles().data(), indices);
+      moved_while_same_cut += !std::equal(last_positions.begin(), last_positions.end(), v.positions().begin(),
+                                          v.positions().end());
+    }
+    EXPECT_EQ(v.grid->layout_revision() != revision, changed) << "frame " << frames;
+    revision = v.grid->layout_revision();
+    last_cut = s.cut_links;
+    indices = v.triangles().data();
+    last_positions.assign(v.positions().begin(), v.positions().end());
+    tissue.request();
+  }
+  EXPECT_GT(cut_changes, 2u) << "the cut grew over several frames";
+  EXPECT_EQ(relaid, cut_changes);
+  EXPECT_GT(moved_while_same_cut, 0u) << "after the stroke the wound still opens, and the drawing follows it";
+  // The cut links were handed over as the stroke cut them without the haptic thread allocating.
+  EXPECT_EQ(tissue.capacity_growths(), 0u);
+
+  const TissueSnapshot& s = tissue.current();
+  ASSERT_GT(s.cut_links.size(), 20u);
+  // The cut line: the middle of the cut links' rest segments (the blade ran along z).
+  double zc = 0;
+  for (const auto& [i, j] : s.cut_links) zc += 0.5 * (rest_points[size_t(i)].z() + rest_points[size_t(j)].z());
+  zc /= double(s.cut_links.size());
+  EXPECT_LT(std::abs(zc - z_path), 0.0005);
+  for (const auto& [i, j] : s.cut_links) {  // every cut link crosses it
+    EXPECT_LT(std::min(rest_points[size_t(i)].z(), rest_points[size_t(j)].z()), zc);
+    EXPECT_GT(std::max(rest_points[size_t(i)].z(), rest_points[size_t(j)].z()), zc);
+  }
+  // Where the blade ran through the layer (x from −8 to 6 mm: past its ends the wound tapers), no
+  // surface triangle of the view has corners on both sides of the cut line.
+  const auto pos = v.positions();
+  const auto tris = v.triangles();
+  const size_t n = v.grid->tessellator().point_count();
+  size_t surface = 0, walls = 0, bridging = 0, near_cut = 0;
+  for (size_t t = 0; t + 2 < tris.size(); t += 3) {
+    if (tris[t] >= n) {  // a wall: its points after the surface's, at most the layer's depth below it
+      ++walls;
+      for (int c = 0; c < 3; ++c) EXPECT_GT(pos[3 * tris[t + c] + 1], -0.004f - depth);
+      continue;
+    }
+    ++surface;
+    float xmin = 1, xmax = -1, zmin = 1, zmax = -1;
+    for (int c = 0; c < 3; ++c) {
+      const float x = pos[3 * tris[t + c]], z = pos[3 * tris[t + c] + 2];
+      xmin = std::min(xmin, x), xmax = std::max(xmax, x), zmin = std::min(zmin, z), zmax = std::max(zmax, z);
+    }
+    if (xmin < -0.008f || xmax > 0.006f) continue;
+    near_cut += std::abs(0.5f * (zmin + zmax) - float(zc)) < 0.003f;
+    bridging += zmin < float(zc) && zmax > float(zc);
+  }
+  EXPECT_EQ(bridging, 0u) << "triangles bridge the wound";
+  EXPECT_GT(near_cut, 100u) << "the surface is drawn up to the wound's edges";
+  EXPECT_GT(walls, 0u);
+  EXPECT_LT(surface, v.grid->tessellator().triangle_count());
+  // The control net shows no cut link (the snapshot's own links leave them out already).
+  std::set<std::array<int, 2>> cut;
+  for (const auto& [i, j] : s.cut_links) cut.insert({std::min(i, j), std::max(i, j)});
+  size_t net_cut = 0;
+  for (const auto& [i, j] : s.cut_links) net_cut += std::abs(i - j) == 1 || std::abs(i - j) == v.cols;
+  EXPECT_GT(net_cut, 0u) << "some cut links are segments of the net";
+  EXPECT_EQ(v.grid_links.size(), size_t(v.rows * (v.cols - 1) + (v.rows - 1) * v.cols) - net_cut);
+  for (const auto& [i, j] : v.grid_links) EXPECT_FALSE(cut.count({std::min(i, j), std::max(i, j)}));
+  // The viewer draws what the run's frame draws of the same snapshot.
+  std::vector<std::vector<float>> storage;
+  std::vector<std::vector<uint32_t>> index_storage;
+  FrameOptions options;
+  options.resolution = resolution;
+  auto frame = frame_scene(*scene, std::span<const TissueSnapshot>(&s, 1), tool.tip, Vec3::Zero(), options, storage,
+                           index_storage);
+  ASSERT_TRUE(frame.ok()) << frame.error().message;
+  const RenderSurface& drawn = frame->surfaces.at(0);
+  EXPECT_TRUE(std::ranges::equal(drawn.positions, v.positions()));
+  EXPECT_TRUE(std::ranges::equal(drawn.normals, v.normals()));
+  EXPECT_TRUE(std::ranges::equal(drawn.triangles, v.triangles()));
+  // Healed (the tissue back to rest): the whole surface and net again.
+  tissue.reset();
+  TissueSnapshot healed;
+  tissue.snapshot(healed);
+  ASSERT_TRUE(view::update_view(v, healed, resolution, depth));
+  EXPECT_EQ(v.triangles().size(), v.grid->tessellator().triangles().size());
+  EXPECT_EQ(v.grid_links.size(), size_t(v.rows * (v.cols - 1) + (v.rows - 1) * v.cols));
 }
 
 }  // namespace

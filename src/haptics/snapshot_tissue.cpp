@@ -29,6 +29,9 @@ SnapshotTissue::SnapshotTissue(std::unique_ptr<Tissue> inner) : inner_(std::move
     reserve_headroom(s.velocities, first.velocities.size());
     reserve_headroom(s.loads, first.loads.size());
     reserve_headroom(s.punctured, first.punctured.size());
+    // A blade's cut links: at most the layer's links (a charged layer drops a link from `links` as it
+    // adds it here), so a wound never grows the copy on the haptic thread.
+    reserve_headroom(s.cut_links, first.links.size() + first.cut_links.size());
     s.points = first.points;
     s.rows_cols = first.rows_cols;
     s.triangles = first.triangles;
@@ -36,6 +39,7 @@ SnapshotTissue::SnapshotTissue(std::unique_ptr<Tissue> inner) : inner_(std::move
     s.velocities = first.velocities;
     s.loads = first.loads;
     s.punctured = first.punctured;
+    s.cut_links = first.cut_links;
   }
 }
 
@@ -53,9 +57,9 @@ Vec3 SnapshotTissue::step(const ToolState& tool, double dt) noexcept {
 
 void SnapshotTissue::copy_into_back(const SnapshotStamp& stamp) noexcept {
   TissueSnapshot& s = slots_[back_];
-  const size_t caps[7] = {s.points.capacity(), s.rows_cols.capacity(), s.triangles.capacity(),
-                          s.links.capacity(),  s.velocities.capacity(), s.loads.capacity(),
-                          s.punctured.capacity()};
+  const size_t caps[8] = {s.points.capacity(),     s.rows_cols.capacity(), s.triangles.capacity(),
+                          s.links.capacity(),      s.velocities.capacity(), s.loads.capacity(),
+                          s.punctured.capacity(), s.cut_links.capacity()};
   try {
     inner_->snapshot(s);
   } catch (...) {
@@ -66,7 +70,7 @@ void SnapshotTissue::copy_into_back(const SnapshotStamp& stamp) noexcept {
   }
   if (s.points.capacity() != caps[0] || s.rows_cols.capacity() != caps[1] ||
       s.triangles.capacity() != caps[2] || s.links.capacity() != caps[3] || s.velocities.capacity() != caps[4] ||
-      s.loads.capacity() != caps[5] || s.punctured.capacity() != caps[6]) {
+      s.loads.capacity() != caps[5] || s.punctured.capacity() != caps[6] || s.cut_links.capacity() != caps[7]) {
     growths_.fetch_add(1, std::memory_order_relaxed);
   }
   stamps_[back_] = stamp;

@@ -163,6 +163,12 @@ void add_sphere(const FrameSphere& s, RenderScene& rs, std::vector<std::vector<f
 
 }  // namespace
 
+double wound_wall_depth(const SceneDef& scene, size_t tissue) {
+  return tissue < scene.tissues.size() && scene.tissues[tissue].model == "charged_particles"
+             ? scene.tissues[tissue].charged.thickness
+             : ChargedMaterialDef{}.thickness;
+}
+
 Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                                 const Vec3& tip, const Vec3& force, const FrameOptions& options,
                                 std::vector<std::vector<float>>& storage,
@@ -183,26 +189,15 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
     if (t.rows_cols.size() == 2 && t.rows_cols[0] >= 2 && t.rows_cols[1] >= 2) {
       SurfaceDef def;
       def.resolution = std::max(1, options.resolution);
-      auto tess = SurfaceTessellator::build(t.rows_cols[0], t.rows_cols[1], def);
-      if (!tess) return tess.error();
-      SurfaceBuffers out;
-      // Drawn smooth: the lattice's ragged ends straightened, the patches' border normals shared.
-      std::vector<Vec3f> control(t.points);
-      straighten_grid_ends(control, t.rows_cols[0], t.rows_cols[1]);
-      if (!tess->tessellate(control, out) || !tess->smooth_border_normals(out.normals))
+      auto drawing = GridDrawing::build(t.rows_cols[0], t.rows_cols[1], def);
+      if (!drawing) return drawing.error();
+      // Drawn smooth (the lattice's ragged ends straightened, the patches' border normals shared)
+      // and, for a cut layer, with no triangle across its wound, whose walls show its thickness.
+      if (!drawing->draw(t.points, t.cut_links, static_cast<float>(wound_wall_depth(scene, i))))
         return Error{"frame: tissue " + std::to_string(i) + ": snapshot has " +
                      std::to_string(t.points.size()) + " points, its grid needs " +
                      std::to_string(t.rows_cols[0] * t.rows_cols[1])};
-      if (!t.cut_links.empty()) {
-        // A cut layer: no triangle bridges its wound, whose walls show the layer's thickness.
-        std::vector<std::uint8_t> cells(static_cast<size_t>((t.rows_cols[0] - 1) * (t.rows_cols[1] - 1)), 0);
-        const double thickness = i < scene.tissues.size() && scene.tissues[i].model == "charged_particles"
-                                     ? scene.tissues[i].charged.thickness
-                                     : ChargedMaterialDef{}.thickness;
-        if (!grid_cut_cells(t.rows_cols[0], t.rows_cols[1], t.cut_links, cells) ||
-            !tess->cut(cells, static_cast<float>(thickness), out))
-          return Error{"frame: tissue " + std::to_string(i) + ": its cut links do not fit its grid"};
-      }
+      SurfaceBuffers out = std::move(*drawing).take();
       storage.push_back(std::move(out.positions));
       storage.push_back(std::move(out.normals));
       index_storage.push_back(std::move(out.triangles));

@@ -251,22 +251,34 @@ bool SurfaceTessellator::cut(std::span<const std::uint8_t> cells, float thicknes
       out.normals.size() != out.positions.size())
     return false;
   if (std::none_of(cells.begin(), cells.end(), [](std::uint8_t c) { return c != 0; })) return true;
+  SurfaceCutLayout layout;
+  if (!cut_layout(cells, layout)) return false;
+  // Sized for this cut's walls (dropping an earlier cut()'s).
+  out.positions.resize(3 * layout.point_count()), out.normals.resize(3 * layout.point_count());
+  if (!cut_walls(layout, thickness, out.positions, out.normals)) return false;
+  out.triangles = std::move(layout.triangles);
+  return true;
+}
+
+bool SurfaceTessellator::cut_layout(std::span<const std::uint8_t> cells, SurfaceCutLayout& layout) const {
+  if (cells.size() != size_t(rows_ - 1) * size_t(cols_ - 1)) return false;
+  const size_t n = point_count();
+  layout.surface_points = n;
+  layout.walls.clear();
+  if (std::none_of(cells.begin(), cells.end(), [](std::uint8_t c) { return c != 0; })) {
+    layout.triangles.assign(triangles_.begin(), triangles_.end());
+    return true;
+  }
   const int res = def_.resolution, r1 = res + 1;
   const size_t quads = triangle_cell_.size() / 2;
   std::vector<std::uint8_t> dropped(quads);
   for (size_t q = 0; q < quads; ++q) dropped[q] = cells[size_t(triangle_cell_[2 * q])] != 0;
-  out.positions.resize(3 * n), out.normals.resize(3 * n);  // drop the walls of an earlier cut()
-  out.triangles.clear();
+  layout.triangles.clear();
   for (size_t q = 0; q < quads; ++q)
-    if (!dropped[q]) out.triangles.insert(out.triangles.end(), triangles_.begin() + 6 * q, triangles_.begin() + 6 * q + 6);
-  const auto pos = [&](uint32_t i) { return Vec3f(out.positions[3 * i], out.positions[3 * i + 1], out.positions[3 * i + 2]); };
-  const auto nrm = [&](uint32_t i) { return Vec3f(out.normals[3 * i], out.normals[3 * i + 1], out.normals[3 * i + 2]); };
-  const auto push = [&](const Vec3f& p, const Vec3f& w) {
-    out.positions.insert(out.positions.end(), {p.x(), p.y(), p.z()});
-    out.normals.insert(out.normals.end(), {w.x(), w.y(), w.z()});
-    return uint32_t(out.positions.size() / 3 - 1);
-  };
-  // A kept quad's side against a dropped one (in its patch or the next) gets a wall.
+    if (!dropped[q])
+      layout.triangles.insert(layout.triangles.end(), triangles_.begin() + 6 * q, triangles_.begin() + 6 * q + 6);
+  // A kept quad's side against a dropped one (in its patch or the next) gets a wall: four points
+  // after the surface's, slots (top p, top q, bottom p, bottom q) as cut_walls fills them.
   const int pc = patch_cols_, pr = patch_rows_;
   for (int pi = 0; pi < pr; ++pi)
     for (int pj = 0; pj < pc; ++pj)
@@ -276,7 +288,6 @@ bool SurfaceTessellator::cut(std::span<const std::uint8_t> cells, float thicknes
           if (dropped[q]) continue;
           const uint32_t base = uint32_t((size_t(pi) * pc + pj) * size_t(r1) * r1);
           const uint32_t p00 = base + uint32_t(a * r1 + b), p01 = p00 + 1, p10 = p00 + uint32_t(r1), p11 = p10 + 1;
-          const Vec3f centre = 0.25f * (pos(p00) + pos(p01) + pos(p10) + pos(p11));
           struct Side { int da, db; uint32_t p, q; };
           const Side sides[4] = {{-1, 0, p00, p01}, {1, 0, p10, p11}, {0, -1, p00, p10}, {0, 1, p01, p11}};
           for (const Side& sd : sides) {
@@ -287,19 +298,48 @@ bool SurfaceTessellator::cut(std::span<const std::uint8_t> cells, float thicknes
             if (nb >= res) nb -= res, ++npj;
             if (npi < 0 || npj < 0 || npi >= pr || npj >= pc) continue;
             if (!dropped[(size_t(npi) * pc + npj) * size_t(res) * res + size_t(na) * res + nb]) continue;
-            const Vec3f P = pos(sd.p), Q = pos(sd.q), nP = nrm(sd.p), nQ = nrm(sd.q);
-            Vec3f w = 0.5f * (P + Q) - centre;
-            const Vec3f nm = (nP + nQ).normalized();
-            w -= w.dot(nm) * nm;
-            if (!(w.squaredNorm() > 0)) continue;
-            w.normalize();
-            const uint32_t t0 = push(P, w), t1 = push(Q, w), b0 = push(P - thickness * nP, w),
-                           b1 = push(Q - thickness * nQ, w);
-            const bool ccw = (Q - P).cross((Q - thickness * nQ) - P).dot(w) > 0;
-            if (ccw) out.triangles.insert(out.triangles.end(), {t0, t1, b1, t0, b1, b0});
-            else out.triangles.insert(out.triangles.end(), {t0, b1, t1, t0, b0, b1});
+            const uint32_t w = uint32_t(n + 4 * layout.walls.size());
+            layout.walls.push_back({sd.p, sd.q, p00, p01, p10, p11});
+            layout.triangles.insert(layout.triangles.end(), {w, w + 1, w + 3, w, w + 3, w + 2});
           }
         }
+  return true;
+}
+
+bool SurfaceTessellator::cut_walls(const SurfaceCutLayout& layout, float thickness, std::span<float> positions,
+                                   std::span<float> normals) const noexcept {
+  const size_t n = point_count();
+  if (layout.surface_points != n || positions.size() != 3 * layout.point_count() || normals.size() != positions.size())
+    return false;
+  const auto pos = [&](uint32_t i) { return Vec3f(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); };
+  const auto nrm = [&](uint32_t i) { return Vec3f(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]); };
+  const auto put = [&](size_t slot, const Vec3f& p, const Vec3f& w) {
+    for (int k = 0; k < 3; ++k) positions[3 * slot + size_t(k)] = p[k], normals[3 * slot + size_t(k)] = w[k];
+  };
+  for (size_t k = 0; k < layout.walls.size(); ++k) {
+    const auto& wall = layout.walls[k];
+    const Vec3f P = pos(wall[0]), Q = pos(wall[1]), nP = nrm(wall[0]), nQ = nrm(wall[1]);
+    const Vec3f centre = 0.25f * (pos(wall[2]) + pos(wall[3]) + pos(wall[4]) + pos(wall[5]));
+    // The wall faces into the wound: from the quad's centre across the side, in the surface's plane.
+    Vec3f w = 0.5f * (P + Q) - centre;
+    const Vec3f nm = (nP + nQ).normalized();
+    w -= w.dot(nm) * nm;
+    const size_t slot = n + 4 * k;
+    if (!(w.squaredNorm() > 0)) {  // a collapsed quad: no side to stand a wall on (zero-area triangles)
+      for (size_t s = 0; s < 4; ++s) put(slot + s, P, nm);
+      continue;
+    }
+    w.normalize();
+    const Vec3f bP = P - thickness * nP, bQ = Q - thickness * nQ;
+    // The layout's triangles are fixed (slots 0 1 3, 0 3 2); cut() winds a wall as (top p, top q,
+    // bottom q) or the other way, by this sign: the other way is the same two triangles with
+    // slots 1 and 2 swapped.
+    const bool ccw = (Q - P).cross(bQ - P).dot(w) > 0;
+    put(slot, P, w);
+    put(slot + 1, ccw ? Q : bP, w);
+    put(slot + 2, ccw ? bP : Q, w);
+    put(slot + 3, bQ, w);
+  }
   return true;
 }
 
@@ -527,6 +567,41 @@ SurfacePoint SurfaceTessellator::evaluate(std::span<const Vec3f> control, int pa
   if (n.squaredNorm() > 1e-12f * sp.du.squaredNorm() * sp.dv.squaredNorm() && n.squaredNorm() > 0)
     sp.normal = n.normalized();
   return sp;
+}
+
+Result<GridDrawing> GridDrawing::build(int rows, int cols, const SurfaceDef& def) {
+  auto t = SurfaceTessellator::build(rows, cols, def);
+  if (!t) return t.error();
+  GridDrawing d(std::move(*t));
+  const size_t n = d.tess_.point_count();
+  d.out_.positions.resize(3 * n), d.out_.normals.resize(3 * n);
+  d.control_.reserve(size_t(rows) * size_t(cols));
+  d.cells_.resize(size_t(rows - 1) * size_t(cols - 1));
+  d.tess_.cut_layout(d.cells_, d.layout_);  // nothing cut: the whole surface
+  return d;
+}
+
+bool GridDrawing::draw(std::span<const Vec3f> points, std::span<const std::array<int, 2>> cut_links, float thickness) {
+  const int rows = tess_.rows(), cols = tess_.cols();
+  if (points.size() != size_t(rows) * size_t(cols)) return false;
+  if (!std::equal(cut_links.begin(), cut_links.end(), cut_links_.begin(), cut_links_.end())) {
+    // The cut changed (a cut stays cut, so it grew, or the layer healed): lay it out again.
+    if (!grid_cut_cells(rows, cols, cut_links, cells_) || !tess_.cut_layout(cells_, layout_)) return false;
+    cut_links_.assign(cut_links.begin(), cut_links.end());
+    out_.positions.resize(3 * layout_.point_count()), out_.normals.resize(3 * layout_.point_count());
+    ++revision_;
+  }
+  control_.assign(points.begin(), points.end());
+  straighten_grid_ends(control_, rows, cols);
+  const size_t n = 3 * tess_.point_count();
+  const std::span<float> positions(out_.positions), normals(out_.normals);
+  return tess_.tessellate(control_, positions.first(n), normals.first(n)) &&
+         tess_.smooth_border_normals(normals.first(n)) && tess_.cut_walls(layout_, thickness, positions, normals);
+}
+
+SurfaceBuffers GridDrawing::take() && {
+  out_.triangles = std::move(layout_.triangles);
+  return std::move(out_);
 }
 
 Result<SurfaceBuffers> tessellate_grid(std::span<const Vec3f> control, int rows, int cols,

@@ -225,7 +225,7 @@ std::optional<double> Viewer::pick_surface(const Vec3& origin, const Vec3& dir) 
   std::optional<double> best;
   for (size_t i = 0; i < views_.size(); ++i) {
     if (!drawn_[i]) continue;
-    const auto t = pick(origin, dir, views_[i].positions, views_[i].triangles());
+    const auto t = pick(origin, dir, views_[i].positions(), views_[i].triangles());
     if (t && (!best || *t < *best)) best = t;
   }
   return best;

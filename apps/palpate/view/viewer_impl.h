@@ -10,6 +10,7 @@
 #include "pose_feeder.h"
 #include "screenshot.h"
 #include "script_player.h"
+#include "tissue_view.h"
 #include "tool_tilt.h"
 #include "ultrasound_feed.h"
 #include "view_setup.h"
@@ -18,6 +19,7 @@
 #include <palpate/device.h>
 #include <palpate/haptics.h>
 #include <palpate/outcome.h>
+#include <palpate/render.h>
 #include <palpate/report.h>
 #include <palpate/simulation.h>
 #include <palpate/surface.h>
@@ -68,27 +70,6 @@ void append_probe_box(TriangleMesh& mesh, const Vec3& face_centre, const Vec3& b
 // Tissue colours by position in the scene: skin, fat, vessel wall, organ, ...
 inline const Vec3f kTissueColors[] = {{0.86f, 0.56f, 0.50f}, {0.95f, 0.84f, 0.45f}, {0.72f, 0.18f, 0.20f},
                                {0.55f, 0.22f, 0.16f}, {0.60f, 0.45f, 0.70f}, {0.45f, 0.65f, 0.60f}};
-
-// What is drawn of one tissue, rebuilt from its latest snapshot each frame. The tessellators are
-// built when the grid or mesh changes size (rarely), then reused allocation-free.
-struct TissueView {
-  std::optional<SurfaceTessellator> grid;  // rows_cols snapshots: Bézier patches over the particles
-  std::optional<PnTessellator> pn;         // triangle snapshots: PN triangles over the mesh
-  size_t mesh_triangles = 0;               // triangle count the PN tessellator was built for
-  std::vector<float> positions, normals;   // (#P x 3) the drawn surface, m and unit
-  std::vector<Vec3f> control;              // the grid's points with its ends straightened (drawn)
-  std::vector<Vec3f> vertex_normals;       // (#points) area-weighted, PN input
-  std::vector<std::array<int, 2>> grid_links;  // the control net's segments
-  int rows = 0, cols = 0;
-  std::span<const std::uint32_t> triangles() const {
-    if (grid) return grid->triangles();
-    if (pn) return pn->triangles();
-    return {};
-  }
-};
-
-// A tissue's drawn surface from its snapshot (viewer_scene.cpp).
-bool update_view(TissueView& view, const TissueSnapshot& s, int resolution);
 
 class Viewer {
  public:

@@ -5,21 +5,6 @@
 #include "core/blade_shape.h"
 
 namespace palpate::view::detail {
-namespace {
-
-// Area-weighted vertex normals of a triangle mesh (a zero normal where no triangle touches).
-void vertex_normals(const TissueSnapshot& s, std::vector<Vec3f>& out) {
-  out.assign(s.points.size(), Vec3f::Zero());
-  const auto n = static_cast<int>(s.points.size());
-  for (const auto& t : s.triangles) {
-    if (t[0] < 0 || t[1] < 0 || t[2] < 0 || t[0] >= n || t[1] >= n || t[2] >= n) continue;
-    const Vec3f& a = s.points[static_cast<size_t>(t[0])];
-    const Vec3f face = (s.points[static_cast<size_t>(t[1])] - a).cross(s.points[static_cast<size_t>(t[2])] - a);
-    for (int k : t) out[static_cast<size_t>(k)] += face;
-  }
-}
-
-}  // namespace
 
 // The probe as a box: its footprint (width along the array × thickness) standing `height` on its
 // face, flat-shaded (four vertices per side).
@@ -45,63 +30,10 @@ void append_probe_box(TriangleMesh& mesh, const Vec3& face_centre, const Vec3& b
   }
 }
 
-// Bring `view` up to date with snapshot `s`; false when it has nothing to draw as a surface.
-bool update_view(TissueView& view, const TissueSnapshot& s, int resolution) {
-  const size_t n = s.points.size();
-  if (s.rows_cols.size() == 2 && s.rows_cols[0] >= 2 && s.rows_cols[1] >= 2 &&
-      static_cast<size_t>(s.rows_cols[0]) * static_cast<size_t>(s.rows_cols[1]) == n) {
-    if (!view.grid || view.rows != s.rows_cols[0] || view.cols != s.rows_cols[1]) {
-      SurfaceDef def;
-      def.scheme = SurfaceScheme::bezier;
-      def.resolution = resolution;
-      auto built = SurfaceTessellator::build(s.rows_cols[0], s.rows_cols[1], def);
-      if (!built) return false;
-      view.grid.emplace(std::move(*built));
-      view.pn.reset();
-      view.rows = s.rows_cols[0];
-      view.cols = s.rows_cols[1];
-      view.grid_links.clear();
-      for (int r = 0; r < view.rows; ++r)
-        for (int c = 0; c < view.cols; ++c) {
-          const int i = r * view.cols + c;
-          if (c + 1 < view.cols) view.grid_links.push_back({i, i + 1});
-          if (r + 1 < view.rows) view.grid_links.push_back({i, i + view.cols});
-        }
-      view.positions.resize(view.grid->point_count() * 3);
-      view.normals.resize(view.grid->point_count() * 3);
-    }
-    // Drawn smooth: the lattice's ragged ends straightened, the patches' border normals shared.
-    view.control.assign(s.points.begin(), s.points.end());
-    straighten_grid_ends(view.control, view.rows, view.cols);
-    return view.grid->tessellate(view.control, view.positions, view.normals) &&
-           view.grid->smooth_border_normals(view.normals);
-  }
-  view.grid.reset();
-  view.rows = view.cols = 0;
-  view.grid_links.clear();
-  if (s.triangles.empty()) {
-    view.pn.reset();
-    return false;
-  }
-  if (!view.pn || view.pn->vertex_count() != static_cast<int>(n) || view.mesh_triangles != s.triangles.size()) {
-    auto built = PnTessellator::build(static_cast<int>(n), s.triangles, 3);
-    if (!built) {
-      view.pn.reset();
-      return false;
-    }
-    view.pn.emplace(std::move(*built));
-    view.mesh_triangles = s.triangles.size();
-    view.positions.resize(view.pn->point_count() * 3);
-    view.normals.resize(view.pn->point_count() * 3);
-  }
-  vertex_normals(s, view.vertex_normals);
-  return view.pn->tessellate(s.points, view.vertex_normals, view.positions, view.normals);
-}
-
 void Viewer::update_views() {
   for (size_t i = 0; i < tissues_.size(); ++i) {
     const TissueSnapshot& s = tissues_[i]->latest();
-    drawn_[i] = update_view(views_[i], s, options_.resolution);
+    drawn_[i] = update_view(views_[i], s, options_.resolution, static_cast<float>(wound_wall_depth(scene_, i)));
     tissues_[i]->request();  // the next step copies a fresh one for the next frame
   }
 }
@@ -115,7 +47,7 @@ void Viewer::draw_scene(int fb_width, int fb_height) {
     const TissueView& v = views_[i];
     const Vec3f color = kTissueColors[i % std::size(kTissueColors)];
     const bool surface = show_surface_ && drawn_[i];
-    if (surface) gl_->triangles(v.positions, v.normals, v.triangles(), color);
+    if (surface) gl_->triangles(v.positions(), v.normals(), v.triangles(), color);
     if (show_grid_ && !v.grid_links.empty()) gl_->lines(s.points, v.grid_links, kGridColor);
     if (show_links_ || (!drawn_[i] && !s.links.empty())) gl_->lines(s.points, s.links, kLinkColor);
     // Particles are drawn when asked, or when nothing else shows the tissue.

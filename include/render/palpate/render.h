@@ -144,6 +144,10 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
                                 std::vector<std::vector<uint32_t>>& index_storage,
                                 const std::optional<Vec3>& tool_axis = std::nullopt,
                                 const FrameProbe* probe = nullptr, std::span<const FrameSphere> spheres = {});
+// How deep the drawn walls of tissue `tissue`'s wound are (GridDrawing, SurfaceTessellator::cut), m:
+// its thickness where the scene lists it as a charged-particle layer, the default layer's where the
+// scene does not list it as one. Frames and the viewer both draw a wound this deep.
+double wound_wall_depth(const SceneDef& scene, size_t tissue);
 Status render_frame_png(const SceneDef& scene, std::span<const TissueSnapshot> tissues,
                         const Vec3& tip, const Vec3& force, const std::filesystem::path& file,
                         const FrameOptions& options = {}, const std::optional<Vec3>& tool_axis = std::nullopt,

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 namespace palpate {
@@ -83,6 +84,17 @@ bool straighten_grid_ends(std::span<Vec3f> control, int rows, int cols) noexcept
 bool grid_cut_cells(int rows, int cols, std::span<const std::array<int, 2>> cut_links,
                     std::span<std::uint8_t> cells) noexcept;
 
+// What a cut leaves of a tessellated grid (SurfaceTessellator::cut_layout): depends on which cells
+// are cut, not on where the surface is.
+struct SurfaceCutLayout {
+  size_t surface_points = 0;        // the tessellator's point_count(); wall points follow them
+  std::vector<uint32_t> triangles;  // (#T x 3) the kept surface triangles, then two per wall
+  // (#W) per wall: the two surface points of the side it stands on (p, q), then the four corners
+  // of the kept sample quad it bounds (whose centre says which way the wound lies).
+  std::vector<std::array<uint32_t, 6>> walls;
+  size_t point_count() const { return surface_points + 4 * walls.size(); }
+};
+
 class SurfaceTessellator {
  public:
   // Fails (an Error saying which value and what was expected) for rows or cols < 2, a
@@ -125,6 +137,15 @@ class SurfaceTessellator {
   // facing into the wound). With no cell cut, `out` is left exactly as tessellate made it.
   // Allocates (like the tessellate above: not for the haptic thread). False on wrong sizes.
   bool cut(std::span<const std::uint8_t> cells, float thickness, SurfaceBuffers& out) const;
+  // cut() in two phases, for a surface drawn every frame (the viewer; GridDrawing below):
+  // cut_layout, when the cut changes, lists the kept triangles and the walls (which sides of kept
+  // sample quads face a dropped one; it allocates); cut_walls, every frame after tessellate(),
+  // places the walls' points on the surface as it is now (noexcept, no allocation). Together they
+  // give what cut() gives. False on wrong sizes (`positions`, `normals`: layout.point_count()·3
+  // floats, the surface's first).
+  bool cut_layout(std::span<const std::uint8_t> cells, SurfaceCutLayout& layout) const;
+  bool cut_walls(const SurfaceCutLayout& layout, float thickness, std::span<float> positions,
+                 std::span<float> normals) const noexcept;
   // The control-grid cell each output triangle lies over (its sample quad's centre), as
   // grid_cut_cells numbers them: (#T).
   std::span<const std::int32_t> triangle_cells() const { return triangle_cell_; }
@@ -158,6 +179,44 @@ class SurfaceTessellator {
   Axis u_, v_;                       // u_: along columns, v_: along rows
   std::vector<uint32_t> triangles_;  // (#T x 3)
   std::vector<std::int32_t> triangle_cell_;  // (#T) the grid cell under each triangle
+};
+
+// A control grid as the viewer and the run's frames draw it (display only): the lattice's ends
+// straightened (straighten_grid_ends), tessellated, the patches' border normals shared
+// (smooth_border_normals), and where cut links are given (TissueSnapshot::cut_links), the wound
+// cut open with walls `thickness` deep (grid_cut_cells, SurfaceTessellator::cut). The cut's layout
+// is kept between draws and made again only when the cut links change, so a draw with the same
+// cut allocates nothing and costs a tessellation, a comparison of the links and the walls' points.
+class GridDrawing {
+ public:
+  // As SurfaceTessellator::build.
+  static Result<GridDrawing> build(int rows, int cols, const SurfaceDef& def = {});
+
+  // Draws these control points (rows·cols, row-major) with these cut links (pairs of control
+  // point indices; a link not between corners of one grid cell cuts nothing). False, keeping the
+  // last drawing, when points.size() != rows·cols.
+  bool draw(std::span<const Vec3f> points, std::span<const std::array<int, 2>> cut_links, float thickness);
+
+  const SurfaceTessellator& tessellator() const { return tess_; }
+  std::span<const float> positions() const { return out_.positions; }  // (#P x 3) m
+  std::span<const float> normals() const { return out_.normals; }      // (#P x 3) unit
+  std::span<const uint32_t> triangles() const { return layout_.triangles; }  // (#T x 3)
+  // The cut links the drawing is laid out for, and how many times it was laid out again (a new
+  // index buffer): a renderer that uploads indices once re-uploads them when this changes.
+  std::span<const std::array<int, 2>> cut_links() const { return cut_links_; }
+  std::uint64_t layout_revision() const { return revision_; }
+  // The arrays of the last draw, moved out (for a one-off drawing, as a frame makes).
+  SurfaceBuffers take() &&;
+
+ private:
+  explicit GridDrawing(SurfaceTessellator tess) : tess_(std::move(tess)) {}
+  SurfaceTessellator tess_;
+  std::vector<Vec3f> control_;                   // (rows·cols) the points with their ends straightened
+  SurfaceBuffers out_;                           // positions and normals; triangles unused
+  std::vector<std::array<int, 2>> cut_links_;    // as last laid out
+  std::vector<std::uint8_t> cells_;              // ((rows−1)·(cols−1)) grid_cut_cells' of them
+  SurfaceCutLayout layout_;
+  std::uint64_t revision_ = 0;
 };
 
 // Tessellate a control grid once (builds a tessellator; for per-frame use keep one instead).

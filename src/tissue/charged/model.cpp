@@ -166,8 +166,8 @@ Result<ChargedModel> build_charged_patch(const PatchDef& p, const ChargedMateria
   if (p.shape == "flat") m.layout = ChargedLayout::flat;
   else if (p.shape == "cylinder") m.layout = ChargedLayout::cylinder;
   else if (p.shape == "sphere") m.layout = ChargedLayout::sphere;
-  else return Error{where + ": patch 'shape' is '" + p.shape + "'; expected flat, cylinder or sphere (a charged "
-                                "layer; gallbladder is a mass_spring shape)"};
+  else return Error{where + ": patch 'shape' is '" + p.shape + "'; expected flat, cylinder or sphere" +
+                    (p.shape == "gallbladder" ? " (gallbladder is a mass_spring organ's shape)" : "")};
   for (auto [v, key] : {std::pair{p.width, "width"}, std::pair{p.height, "height"},
                         std::pair{p.spacing, "spacing"}})
     if (!(std::isfinite(v) && v > 0))
