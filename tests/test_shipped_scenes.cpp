@@ -23,6 +23,9 @@ TEST(ShippedScenes, EachRunsAndItsToolTouchesItsTissue) {
     // Under a sanitizer the 54k-vertex organ's scene alone is past ctest's 300 s (its mesh, its
     // factorisation and 1,500 ticks): run in full by the release suite only.
     if (kSanitized && name == "large-organ.yaml") continue;
+    // The gallbladder's 8,000 ticks of a 3,000-vertex organ with 15 new factors: under the sanitizers
+    // once, by CutScenes (the whole scene, tick by tick), not again here (CI's time budget).
+    if (kSanitized && name == "gallbladder.yaml") continue;
     if (!missing_component(entry.path()).empty()) continue;  // a build without it (components.h)
     auto scene = load_scene(entry.path());
     ASSERT_TRUE(scene.ok()) << scene.error().message;
@@ -45,5 +48,5 @@ TEST(ShippedScenes, EachRunsAndItsToolTouchesItsTissue) {
     // ≤ 0.04 N (they were up to 0.154 N before the patch's points moved between steps; docs/haptics.md).
     EXPECT_EQ(r->safety.rate_limited, 0u) << name;
   }
-  EXPECT_GE(ran, (kSanitized ? 7 : 8) - (PALPATE_HAS_GMSH ? 0 : 2));  // liver-probe, liver-springs: .msh
+  EXPECT_GE(ran, (kSanitized ? 8 : 10) - (PALPATE_HAS_GMSH ? 0 : 2));  // liver-probe, liver-springs: .msh
 }

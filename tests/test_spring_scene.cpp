@@ -105,6 +105,7 @@ TEST(SpringScene, EveryShippedMassSpringSceneTouchesItsOrgan) {
     if (entry.path().extension() != ".yaml") continue;
     const std::string name = entry.path().filename().string();
     if (kSanitized && name == "large-organ.yaml") continue;  // past 300 s under a sanitizer (sanitized.h)
+    if (kSanitized && name == "gallbladder.yaml") continue;  // under the sanitizers by CutScenes, once
     if (!missing_component(entry.path()).empty()) continue;  // a build without it (components.h)
     auto scene = palpate::load_scene(entry.path());
     ASSERT_TRUE(scene.ok()) << scene.error().message;
