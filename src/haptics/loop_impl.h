@@ -136,6 +136,7 @@ struct HapticLoop::Impl {
   // stroke from a teleport (LoopSettings::blade_max_speed).
   bool blade_tool = false;
   bool blade_prev_valid = false;
+  std::int64_t blade_prev_ns = 0;  // realtime: when the last tick's blade was read (0: headless)
   Vec3 blade_prev_tip = Vec3::Zero(), blade_prev_heel = Vec3::Zero();
   std::uint64_t k = 0;               // ticks done
   bool headless_now = false;
@@ -157,7 +158,7 @@ struct HapticLoop::Impl {
   // duration in StageClock counts (0 when settings.time_stages is off).
   std::uint64_t tick(std::int64_t deadline_ns) noexcept;
   void read_devices(TickState& ts) noexcept;
-  void gate_blade() noexcept;
+  void gate_blade(const TickState& ts) noexcept;
   void step_tissues(TickState& ts) noexcept;
   void render_forces(TickState& ts) noexcept;
   void watchdog(TickState& ts) noexcept;

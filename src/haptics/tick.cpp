@@ -85,16 +85,16 @@ void HapticLoop::Impl::read_devices(TickState& ts) noexcept {
   // a device without orientation gives the same ticks as a fixed axis, bit for bit.
   tool.axis = needle_axis(scene_axis, n.state.orientation);
   tool.grasp = (n.state.buttons & 1u) != 0;
-  if (blade_tool) gate_blade();
+  if (blade_tool) gate_blade(ts);
 }
 
 // A blade cuts only on a tick the hand could have made: either end of its edge moving farther than
-// blade_max_speed · dt since the last tick (a device's glitch, a tracking jump, the proxy restarted
+// blade_max_speed · dt since the last tick (realtime: · the time since it, if longer; a device's glitch, a tracking jump, the proxy restarted
 // at the device), a held pose (a failed or NaN read) or a non-finite edge gives the tissues a blade
 // that presses but does not cut (ToolState::blade false) this tick; a jump is counted
 // (SafetyCounters::blade_teleport, the `blade_teleport` event). The force is not zeroed: the tool
 // still presses, and the tissues' force of it is as safe as a probe's.
-void HapticLoop::Impl::gate_blade() noexcept {
+void HapticLoop::Impl::gate_blade(const TickState& ts) noexcept {
   ToolSlot& n = needle();
   n.loop_events = 0;
   const Vec3 heel = tool.tip - tool.length * tool.axis;
@@ -103,7 +103,13 @@ void HapticLoop::Impl::gate_blade() noexcept {
     blade_prev_valid = false;
     return;
   }
-  const double reach = s.blade_max_speed * s.dt;
+  // The hand moves for as long as the tick took: a realtime loop that stalled (a loaded machine)
+  // finds the blade as far along as the stall let it go, which is not a jump. Headless: one dt.
+  const std::int64_t now = ts.deadline_ns ? monotonic_ns() : 0;
+  double span = s.dt;
+  if (now && blade_prev_ns) span = std::max(span, double(now - blade_prev_ns) * 1e-9);
+  blade_prev_ns = now;
+  const double reach = s.blade_max_speed * span;
   const bool jumped = blade_prev_valid && !((tool.tip - blade_prev_tip).norm() <= reach &&
                                             (heel - blade_prev_heel).norm() <= reach);
   if (jumped) {
