@@ -10,6 +10,7 @@
 #include <palpate/tissue.h>
 #include <palpate/tissue_files.h>
 
+#include "components.h"
 #include "run_csv_rows.h"
 #include "shell_run.h"
 #include "spring_fixtures.h"
@@ -362,6 +363,7 @@ std::vector<std::vector<std::string>> cells_of(const fs::path& csv) {
 }
 
 TEST(RunReplay, AReplayedRunInstallsItsCutsAtTheRecordedTicksAndRepeatsItsForces) {
+  PALPATE_NEEDS_CLI();
   const fs::path dir = fresh_dir("run");
   const std::string cache = " --cache " + (dir / "cache").string();
   auto cli = [&](const std::string& args) {
@@ -431,6 +433,7 @@ TEST(RunReplay, AReplayedRunInstallsItsCutsAtTheRecordedTicksAndRepeatsItsForces
 }
 
 TEST(RunReplay, AMalformedInstallColumnIsRefusedNamingTheFileAndLine) {
+  PALPATE_NEEDS_CLI();
   const fs::path dir = fresh_dir("bad");
   const fs::path rec = dir / "bad.csv";
   std::ofstream(rec) << "t,tool_x,tool_y,tool_z,tick,block.cut_installed\n0.001,-0.005,0.004,0,0,4\n0.002,-0.005,0.004,0,1,3\n";
