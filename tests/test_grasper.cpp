@@ -140,7 +140,7 @@ TEST(Grasper, ItPressesGraspsAndPullsAnOrganOnItsOwnDevice) {
   LoopSettings ls;
   ls.dt = 0.001;
   ls.ramp_in = 0;
-  LoopTool g{"grasper", &grasper, nullptr, 0.0, std::nullopt};
+  LoopTool g{"grasper", &grasper, nullptr, 0.0, std::nullopt, {}};
   g.tissue_tool = jaws(0.002);
   auto loop = HapticLoop::create(hand, {{tissue.get(), 0.0}}, ls, {g});
   ASSERT_TRUE(loop.ok()) << loop.error().message;
@@ -175,7 +175,7 @@ TEST(Grasper, TheLoopRefusesTwoTissueToolsOrATissueOnItsOwnThread) {
   ScriptedDevice a({at(0, Vec3::Zero())}, lim, Vec3(0, -1, 0)), b({at(0, Vec3::Zero())}, lim, Vec3(0, -1, 0));
   LoopSettings ls;
   ls.dt = 0.001;
-  LoopTool ga{"grasper", &a, nullptr, 0.1, std::nullopt}, gb{"other", &b, nullptr, 0.1, std::nullopt};
+  LoopTool ga{"grasper", &a, nullptr, 0.1, std::nullopt, {}}, gb{"other", &b, nullptr, 0.1, std::nullopt, {}};
   ga.tissue_tool = gb.tissue_tool = jaws(0.002);
   auto two = HapticLoop::create(hand, {{tissue.get(), 0.0}}, ls, {ga, gb});
   ASSERT_FALSE(two.ok());
@@ -185,7 +185,7 @@ TEST(Grasper, TheLoopRefusesTwoTissueToolsOrATissueOnItsOwnThread) {
   ASSERT_FALSE(threaded.ok());
   EXPECT_NE(threaded.error().message.find("tissue 'ball' is stepped on its own thread"), std::string::npos)
       << threaded.error().message;
-  LoopTool none{"grasper", &a, nullptr, 0.1, std::nullopt};
+  LoopTool none{"grasper", &a, nullptr, 0.1, std::nullopt, {}};
   none.tissue_tool = jaws(0.0);
   auto flat = HapticLoop::create(hand, {{tissue.get(), 0.0}}, ls, {none});
   ASSERT_FALSE(flat.ok());

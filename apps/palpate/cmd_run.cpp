@@ -170,6 +170,9 @@ int run_command(const RunArgs& a) {
                  c.non_finite, c.step_failed, c.overrun, c.stalled, c.device_failed);
     if (c.blade_teleport > 0)
       fmt::print("safety     blade teleported {} ticks (pressed without cutting)\n", c.blade_teleport);
+    if (s.passivity.active_ticks > 0)
+      fmt::print("passivity  damping added on {} ticks (capped on {}), {:.3g} J absorbed, lowest energy {:.3g} J\n",
+                 s.passivity.active_ticks, s.passivity.capped_ticks, s.passivity.dissipated, s.passivity.min_energy);
     if (s.recorder_dropped > 0) fmt::print("recorder   {} rows dropped\n", s.recorder_dropped);
     for (const LoopPhysicsStats& p : s.physics) {
       const std::string name = p.tissue >= 0 && size_t(p.tissue) < s.tissue_names.size() ? s.tissue_names[size_t(p.tissue)] : "?";

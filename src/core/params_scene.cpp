@@ -40,6 +40,15 @@ std::span<const Param<DeviceDef>> param_table(const DeviceDef*) {
       {"ramp_in", &D::ramp_in, 0.0, 10.0, "s", "forces ramp in from zero over this time at the start"},
       {"stiffness", &D::stiffness, 0.0, 1e5, "N/m", "device's nominal maximum stiffness (virtual coupling)"},
       {"damping", &D::damping, 0.0, 1e3, "N·s/m", "device's nominal maximum damping"},
+      {"passivity", &D::passivity, 0, 1, "",
+       "time-domain passivity (Hannaford & Ryu 2002): damping added when the tool would give the hand energy "
+       "it never put in; false leaves the observer only (its E still in run.csv)"},
+      {"passivity_window", &D::passivity_window, 0.0, 10.0, "s",
+       "passivity: the force this long below 1 mN, the observer forgets the energy the tissue dissipated"},
+      {"passivity_velocity_floor", &D::passivity_velocity_floor, 1e-4, 1.0, "m/s",
+       "passivity: the speed below which the damping is computed as at this speed (|v|² floored)"},
+      {"passivity_max_damping", &D::passivity_max_damping, 0.0, 1.0, "",
+       "passivity: the largest damping added, as a fraction of the device's `damping`"},
       {"coupling", &D::coupling, 0, 0, "",
        "force rendering: the force on the HIP (direct), or a spring-damper to a tool proxy the tissues push "
        "(virtual)", "direct|virtual"},

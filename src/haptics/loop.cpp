@@ -64,6 +64,17 @@ void HapticLoop::Impl::ToolSlot::publish_counters() noexcept {
   rate_limited.set(c.rate_limited), overrun.set(c.overrun), stalled.set(c.stalled);
   device_failed.set(c.device_failed);
   blade_teleport.set(blade_teleports);
+  const PassivityCounters& p = passivity.counters();
+  pc_active.set(p.active_ticks), pc_capped.set(p.capped_ticks);
+  pc_dissipated.set(p.dissipated), pc_min_energy.set(p.min_energy), pc_max_damping.set(p.max_damping);
+  pc_energy.set(passivity.energy());
+}
+
+PassivityCounters HapticLoop::Impl::ToolSlot::passivity_counters() const noexcept {
+  PassivityCounters p;
+  p.active_ticks = pc_active.get(), p.capped_ticks = pc_capped.get();
+  p.dissipated = pc_dissipated.get(), p.min_energy = pc_min_energy.get(), p.max_damping = pc_max_damping.get();
+  return p;
 }
 
 SafetyCounters HapticLoop::Impl::ToolSlot::counters() const noexcept {
@@ -159,14 +170,15 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
     m.scene_axis = settings.tool.axis.normalized();
   m.tool.axis = m.scene_axis;
   m.columns = {"t", "tool_x", "tool_y", "tool_z", "force_x", "force_y", "force_z", "force_N",
-               "tick", "tool_qw", "tool_qx", "tool_qy", "tool_qz", "buttons", "events"};
+               "tick", "tool_qw", "tool_qx", "tool_qy", "tool_qz", "buttons", "events",
+               "passivity_energy", "passivity_damping"};
   if (settings.coupling == Coupling::virtual_) {
     m.proxy_col = m.columns.size();
     for (const char* c : {"proxy_x", "proxy_y", "proxy_z"}) m.columns.push_back(c);
   }
   // Tool 0: the scene's tool on `device`, its force the tissues'. Each tool holds its pose at
   // start if its first reads fail; the proxy starts where the device is.
-  m.tools.push_back(std::make_unique<Impl::ToolSlot>(LoopTool{"tool", &device, nullptr, settings.ramp_in, std::nullopt}, settings.ramp_in));
+  m.tools.push_back(std::make_unique<Impl::ToolSlot>(LoopTool{"tool", &device, nullptr, settings.ramp_in, std::nullopt, settings.passivity}, settings.ramp_in));
   auto start_pose = [](Impl::ToolSlot& x) {
     DeviceState at_start;
     if (!x.def.device->read(0.0, at_start) || !at_start.position.allFinite()) return false;
@@ -214,7 +226,7 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
     auto slot = std::make_unique<Impl::ToolSlot>(t, t.ramp_in);
     slot->col = m.columns.size();
     for (const char* c : {"_x", "_y", "_z", "_qw", "_qx", "_qy", "_qz", "_force_x", "_force_y",
-                          "_force_z", "_force_N", "_events"})
+                          "_force_z", "_force_N", "_events", "_passivity_energy", "_passivity_damping"})
       m.columns.push_back(t.name + c);
     start_pose(*slot);
     m.tools.push_back(std::move(slot));
@@ -231,8 +243,8 @@ Result<std::unique_ptr<HapticLoop>> HapticLoop::create(Device& device, std::vect
     ro.keep_columns = {kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kQw, kQx, kQy, kQz};
     for (size_t i = 1; i < m.tools.size(); ++i) {
       const size_t col = m.tools[i]->col;
-      formats[col + Impl::kToolColumns - 1] = ColumnFormat::safety_events;
-      for (size_t c = 0; c + 1 < Impl::kToolColumns; ++c) ro.keep_columns.push_back(col + c);
+      formats[col + Impl::kToolEvents] = ColumnFormat::safety_events;
+      for (size_t c = 0; c < Impl::kToolEvents; ++c) ro.keep_columns.push_back(col + c);
     }
     m.kept_series = ro.keep_columns.size();
     for (size_t c : ro.keep_columns) m.series_columns.push_back(m.columns[c]);
@@ -322,6 +334,8 @@ LoopStats HapticLoop::stats() const {
   for (size_t i = 0; i < kTickStageCount; ++i)
     st.stages[i] = {m.stages.h[i].percentile(0.5, spc), m.stages.h[i].percentile(0.99, spc), m.stages.h[i].max(spc)};
   st.safety = m.needle().counters();
+  st.passivity = m.needle().passivity_counters();
+  st.passivity_energy = m.needle().pc_energy.get();
   st.recorder_dropped = m.recorder ? m.recorder->dropped() : 0;
   st.max_force = m.needle().max_force.get();
   TrainingMetrics& tm = st.metrics;
@@ -343,6 +357,8 @@ LoopStats HapticLoop::stats() const {
     ts.max_force = x.max_force.get();
     ts.max_force_limit = x.def.device->limits().max_force;
     ts.safety = x.counters();
+    ts.passivity = x.passivity_counters();
+    ts.passivity_enabled = x.def.passivity.enabled;
     ts.last_force = Vec3(x.fx.get(), x.fy.get(), x.fz.get());
     st.tools.push_back(std::move(ts));
   }

@@ -24,7 +24,8 @@ namespace palpate {
 // The row's fixed columns (run.csv): create() names them, the tick's record stage writes them;
 // tissue figures follow (and the proxy's, if any), then each extra tool's kToolColumns.
 enum LoopColumn : size_t {
-  kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kTick, kQw, kQx, kQy, kQz, kButtons, kEvents, kFixedColumns
+  kT, kToolX, kToolY, kToolZ, kForceX, kForceY, kForceZ, kForceN, kTick, kQw, kQx, kQy, kQz, kButtons, kEvents,
+  kPassivityEnergy, kPassivityDamping, kFixedColumns
 };
 
 // A double shared between threads, written by one.
@@ -72,6 +73,7 @@ struct HapticLoop::Impl {
   struct ToolSlot {
     LoopTool def;
     ForceSafety safety;
+    PassivityController passivity;
     DeviceState state;
     Vec3 last_good_position = Vec3::Zero();
     Quat last_good_orientation = Quat::Identity();
@@ -82,15 +84,21 @@ struct HapticLoop::Impl {
     RelaxedDouble max_force, fx, fy, fz, px, py, pz;
     RelaxedCount non_finite, step_failed, clamped, rate_limited, overrun, stalled, device_failed;
     RelaxedCount blade_teleport;
+    RelaxedCount pc_active, pc_capped;
+    RelaxedDouble pc_dissipated, pc_min_energy, pc_max_damping, pc_energy;
     std::uint64_t blade_teleports = 0;  // the loop's own count (the filter's are in `safety`)
     std::uint32_t loop_events = 0;      // SafetyEvent bits the loop set this tick (kEventBladeTeleport)
     bool grasp = false;                 // a tissue tool's grasp (button 1) as last read well
     SampleExchange sample;
-    ToolSlot(const LoopTool& t, double ramp) : def(t), safety(t.device->limits(), ramp) {}
+    ToolSlot(const LoopTool& t, double ramp)
+        : def(t), safety(t.device->limits(), ramp), passivity(t.device->limits(), t.passivity) {}
     void publish_counters() noexcept;
     SafetyCounters counters() const noexcept;
+    PassivityCounters passivity_counters() const noexcept;
   };
-  static constexpr size_t kToolColumns = 12;  // x y z qw qx qy qz force_x force_y force_z force_N events
+  // x y z qw qx qy qz force_x force_y force_z force_N events passivity_energy passivity_damping
+  static constexpr size_t kToolColumns = 14;
+  static constexpr size_t kToolEvents = 11;  // its `events` column, after the kept series
 
   struct Slot {
     Tissue* tissue = nullptr;

@@ -93,4 +93,68 @@ Vec3 ForceSafety::ramp_down(double dt) noexcept {
   return last_;
 }
 
+PassivitySettings passivity_settings(const DeviceDef& def) noexcept {
+  PassivitySettings p;
+  p.enabled = def.passivity;
+  p.window = def.passivity_window;
+  p.velocity_floor = def.passivity_velocity_floor;
+  p.max_damping_fraction = def.passivity_max_damping;
+  return p;
+}
+
+PassivityController::PassivityController(const DeviceLimits& limits, const PassivitySettings& settings)
+    : settings_(settings) {
+  const double fraction = std::isfinite(settings.max_damping_fraction) ? std::max(0.0, settings.max_damping_fraction) : 0.0;
+  const double damping = std::isfinite(limits.damping) ? std::max(0.0, limits.damping) : 0.0;
+  max_alpha_ = fraction * damping;
+  if (!(settings_.velocity_floor > 0) || !std::isfinite(settings_.velocity_floor)) settings_.velocity_floor = 0.01;
+  if (!(settings_.window >= 0) || !std::isfinite(settings_.window)) settings_.window = 0.03;
+  if (!(settings_.free_force >= 0) || !std::isfinite(settings_.free_force)) settings_.free_force = 1e-3;
+}
+
+void PassivityController::reset() noexcept {
+  energy_ = 0;
+  alpha_ = 0;
+  free_for_ = 0;
+  have_position_ = false;
+  position_.setZero();
+  held_.setZero();
+  counters_ = {};
+}
+
+Vec3 PassivityController::control(const Vec3& requested, const Vec3& position, const Vec3& velocity, double dt) noexcept {
+  alpha_ = 0;
+  // The work of the force held since the last tick over the device's motion since then.
+  if (position.allFinite()) {
+    if (have_position_) energy_ -= held_.dot(position - position_);
+    position_ = position;
+    have_position_ = true;
+    counters_.min_energy = std::min(counters_.min_energy, energy_);
+  }
+  if (!settings_.enabled || !requested.allFinite() || !velocity.allFinite() || !(dt > 0)) return requested;
+  // The energy at the next tick if the request were sent as it is, the device going on at v.
+  const double predicted = energy_ - requested.dot(velocity) * dt;
+  // (A deficit of round-off, under a picojoule, is none: no damping counted for it.)
+  if (predicted >= -1e-12) return requested;
+  const double floor2 = settings_.velocity_floor * settings_.velocity_floor;
+  double alpha = -predicted / (dt * std::max(velocity.squaredNorm(), floor2));
+  ++counters_.active_ticks;
+  if (!(alpha <= max_alpha_)) {
+    alpha = max_alpha_;
+    ++counters_.capped_ticks;
+  }
+  alpha_ = alpha;
+  counters_.max_damping = std::max(counters_.max_damping, alpha);
+  counters_.dissipated += alpha * velocity.squaredNorm() * dt;
+  return requested - alpha * velocity;
+}
+
+void PassivityController::sent(const Vec3& force, double dt) noexcept {
+  held_ = force.allFinite() ? force : Vec3(Vec3::Zero());
+  // Free of force for a whole window: nothing is stored between tool and tissue, so the credit
+  // left was dissipated; forget it. A deficit stays until the damping has paid it back.
+  free_for_ = held_.norm() < settings_.free_force ? free_for_ + dt : 0.0;
+  if (free_for_ >= settings_.window && energy_ > 0) energy_ = 0;
+}
+
 }  // namespace palpate

@@ -229,15 +229,24 @@ void HapticLoop::Impl::watchdog(TickState& ts) noexcept {
 // 5. Each tool's force through its own safety filter (finite, clamped, rate-limited, ramped in,
 // zero on a fault), then to its device. An overrun (the tick as a whole ran late) zeroes every
 // tool; tool 0's other faults (a failed step, a stalled physics thread, its device) only tool 0.
+//
+// Before its filter, each tool's passivity controller observes the work the hand did since the last
+// tick and adds the damping that keeps that energy (its E) from going below zero; what leaves the
+// filter is what it holds until the next tick (safety.h, PassivityController).
 void HapticLoop::Impl::safety_and_write(TickState& ts) noexcept {
   ToolSlot& n = needle();
-  n.sent = n.safety.filter(n.request, s.dt, ts.fault);
+  const Vec3 f0 = n.passivity.control(n.request, n.state.position, n.state.velocity, s.dt);
+  n.sent = n.safety.filter(f0, s.dt, ts.fault);
+  n.passivity.sent(n.sent, s.dt);
   n.def.device->write(n.sent, Vec3::Zero());
   for (size_t i = 1; i < tools.size(); ++i) {
     ToolSlot& x = *tools[i];
     TickFault f = x.read_fault;
     if (f == TickFault::none && ts.fault == TickFault::overrun) f = TickFault::overrun;
-    x.sent = x.safety.filter(f == TickFault::none ? x.request : Vec3(Vec3::Zero()), s.dt, f);
+    const Vec3 fx = x.passivity.control(f == TickFault::none ? x.request : Vec3(Vec3::Zero()), x.state.position,
+                                        x.state.velocity, s.dt);
+    x.sent = x.safety.filter(fx, s.dt, f);
+    x.passivity.sent(x.sent, s.dt);
     x.def.device->write(x.sent, Vec3::Zero());
   }
 }
@@ -257,6 +266,7 @@ void HapticLoop::Impl::record(TickState& ts) noexcept {
   r[kQy] = st.orientation.y(), r[kQz] = st.orientation.z();
   r[kButtons] = double(st.buttons);
   r[kEvents] = double(n.safety.last_events() | n.loop_events);
+  r[kPassivityEnergy] = n.passivity.energy(), r[kPassivityDamping] = n.passivity.damping();
   if (proxy_col) {
     r[proxy_col] = proxy.position.x(), r[proxy_col + 1] = proxy.position.y();
     r[proxy_col + 2] = proxy.position.z();
@@ -270,6 +280,7 @@ void HapticLoop::Impl::record(TickState& ts) noexcept {
     c[7] = x.sent.x(), c[8] = x.sent.y(), c[9] = x.sent.z();
     c[10] = x.sent.norm();
     c[11] = double(x.safety.last_events());
+    c[12] = x.passivity.energy(), c[13] = x.passivity.damping();
   }
   if (recorder) {
     if (headless_now)

@@ -35,6 +35,16 @@ using namespace run_support;
 
 
 
+// A passivity controller's work for summary.json (safety.h, PassivityController).
+static nlohmann::json passivity_json(const PassivityCounters& p, bool enabled) {
+  return {{"enabled", enabled},
+          {"active_ticks", p.active_ticks},
+          {"capped_ticks", p.capped_ticks},
+          {"dissipated_J", p.dissipated},
+          {"min_energy_J", p.min_energy},
+          {"max_damping_Ns_per_m", p.max_damping}};
+}
+
 Result<RunSummary> run_scene(const SceneDef& scene, const RunOptions& options) {
   auto sim = Simulation::build(scene, run_simulation_options(scene, options));
   if (!sim) return sim.error();
@@ -407,6 +417,7 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
   summary.period = st.period;
   summary.deadline_misses = st.deadline_misses;
   summary.safety = st.safety;
+  summary.passivity = st.passivity;
   summary.recorder_dropped = st.recorder_dropped;
   summary.metrics = st.metrics;
   for (const HapticLoop::Event& e : loop.events())
@@ -458,7 +469,8 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
                  {"clamped", sc.clamped}, {"rate_limited", sc.rate_limited},
                  {"overrun", sc.overrun}, {"stalled", sc.stalled},
                  {"device_failed", sc.device_failed}, {"blade_teleport", sc.blade_teleport},
-                 {"max_force_N", dev.limits().max_force}};
+                 {"max_force_N", dev.limits().max_force},
+                 {"passivity", passivity_json(st.passivity, scene.device.passivity)}};
   // The probe (the other hand's tool): its largest force and its own safety filter's counters.
   summary.tools = st.tools;
   for (const LoopToolStats& t : st.tools) {
@@ -467,7 +479,8 @@ Result<RunSummary> run_simulation(Simulation& sim, const RunOptions& options) {
                  {"safety", {{"non_finite", c.non_finite}, {"step_failed", c.step_failed},
                              {"clamped", c.clamped}, {"rate_limited", c.rate_limited},
                              {"overrun", c.overrun}, {"stalled", c.stalled},
-                             {"device_failed", c.device_failed}, {"max_force_N", t.max_force_limit}}}};
+                             {"device_failed", c.device_failed}, {"max_force_N", t.max_force_limit},
+                             {"passivity", passivity_json(t.passivity, t.passivity_enabled)}}}};
   }
   j["recorder_dropped"] = st.recorder_dropped;
   j["tissues"] = nlohmann::json::array();

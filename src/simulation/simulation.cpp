@@ -51,6 +51,7 @@ Result<LoopSettings> scene_loop_settings(const SceneDef& scene_in, const Simulat
   ls.proxy_mass = scene.device.proxy_mass;
   ls.watchdog.overrun_margin = options.overrun_margin >= 0 ? options.overrun_margin : scene.device.overrun_margin;
   ls.watchdog.stall_timeout = scene.device.stall_timeout;
+  ls.passivity = passivity_settings(scene.device);
   ls.tool = scene.tool;
   ls.outcome = build_outcome_model(scene);
   return ls;
@@ -106,7 +107,8 @@ struct Simulation::Impl {
     std::vector<LoopTool> extra;
     for (const SimulationTool& t : tools)
       if (t.loop_index > 0) {
-        extra.push_back({t.name, t.device, t.model, t.device_def ? t.device_def->ramp_in : 0.1, std::nullopt});
+        extra.push_back({t.name, t.device, t.model, t.device_def ? t.device_def->ramp_in : 0.1, std::nullopt,
+                         t.device_def ? passivity_settings(*t.device_def) : PassivitySettings{}});
         if (t.role == ToolRole::grasper && scene.grasper) {
           ToolDef g;
           g.kind = "sphere";

@@ -46,7 +46,7 @@ std::string vector_path() {
   return "scalar";
 }
 
-RunResult run_trace(const std::filesystem::path& scene_file) {
+RunResult run_trace(const std::filesystem::path& scene_file, const std::function<void(SceneDef&)>& edit) {
   namespace fs = std::filesystem;
   RunResult r;
   auto scene = load_scene(scene_file);
@@ -54,6 +54,7 @@ RunResult run_trace(const std::filesystem::path& scene_file) {
     r.error = scene.error().message;
     return r;
   }
+  if (edit) edit(*scene);
   RunOptions o;
   o.out = fs::temp_directory_path() /
           fmt::format("palpate_golden_{}_{}", scene_file.stem().string(), ::getpid());

@@ -16,8 +16,13 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
+
+namespace palpate {
+struct SceneDef;
+}
 
 namespace palpate::golden {
 
@@ -39,7 +44,8 @@ struct RunResult {
   Trace trace;
   std::string error;
 };
-RunResult run_trace(const std::filesystem::path& scene_file);
+// `edit`, when given, changes the loaded scene before it runs (a setting turned off to compare with).
+RunResult run_trace(const std::filesystem::path& scene_file, const std::function<void(SceneDef&)>& edit = {});
 
 // Write / read a trace file. Read returns false with `error` set (naming the file) on any damage.
 bool write_trace(const std::filesystem::path& file, const Trace& trace, std::string& error);

@@ -391,7 +391,7 @@ std::unique_ptr<Rig> make_rig(const ModelCase& mc, std::uint32_t seed, const std
   std::vector<palpate::LoopTissue> lt;
   for (size_t i = 0; i < rig->owned.size(); ++i)
     lt.push_back({rig->owned[i].get(), mc.multi_rate ? palpate::scene_physics_dt(rig->scene.tissues[i]) : 0.0});
-  std::vector<palpate::LoopTool> tools = {{"probe", rig->probe_hand.get(), rig->neck_model.get(), 0.1, std::nullopt}};
+  std::vector<palpate::LoopTool> tools = {{"probe", rig->probe_hand.get(), rig->neck_model.get(), 0.1, std::nullopt, {}}};
   auto loop = palpate::HapticLoop::create(*rig->hand, lt, ls, tools);
   EXPECT_TRUE(loop.ok()) << loop.error().message;
   if (!loop) return nullptr;

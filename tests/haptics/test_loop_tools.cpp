@@ -89,7 +89,7 @@ TEST(LoopTools, TwoScriptedDevicesInOneRealtimeRunEachWithinItsOwnLimits) {
   s.watchdog.overrun_margin = 1.0;  // a loaded test machine's late tick is not what this checks
   s.csv = fs::temp_directory_path() / "palpate_test_loop_tools" / "run.csv";
   fs::create_directories(s.csv.parent_path());
-  auto built = palpate::HapticLoop::create(needle, {{&floor, 0.0}}, s, {{"probe", &probe, &wall, 0.05, std::nullopt}});
+  auto built = palpate::HapticLoop::create(needle, {{&floor, 0.0}}, s, {{"probe", &probe, &wall, 0.05, std::nullopt, {}}});
   ASSERT_TRUE(built.ok()) << built.error().message;
   palpate::HapticLoop& loop = **built;
   ASSERT_EQ(loop.tool_count(), 2u);
@@ -161,7 +161,7 @@ TEST(LoopTools, AFailingProbeDeviceZeroesOnlyTheProbe) {
   s.dt = dt;
   s.realtime = false;
   s.ramp_in = 0.0;
-  auto built = palpate::HapticLoop::create(needle, {{&floor, 0.0}}, s, {{"probe", &probe, &wall, 0.0, std::nullopt}});
+  auto built = palpate::HapticLoop::create(needle, {{&floor, 0.0}}, s, {{"probe", &probe, &wall, 0.0, std::nullopt, {}}});
   ASSERT_TRUE(built.ok()) << built.error().message;
   (*built)->run_headless(400);
   const palpate::LoopStats st = (*built)->stats();
@@ -183,11 +183,11 @@ TEST(LoopTools, BadToolsAreRefusedWithWhatIsWrong) {
   KickingWall wall(500.0);
   palpate::LoopSettings s;
   s.realtime = false;
-  auto a = palpate::HapticLoop::create(needle, {{&floor, 0.0}}, s, {{"probe", &probe, nullptr, 0.1, std::nullopt}});
+  auto a = palpate::HapticLoop::create(needle, {{&floor, 0.0}}, s, {{"probe", &probe, nullptr, 0.1, std::nullopt, {}}});
   ASSERT_FALSE(a.ok());
   EXPECT_EQ(a.error().message, "haptic loop: tool 1 'probe': needs a device and a force model");
   auto b = palpate::HapticLoop::create(needle, {{&floor, 0.0}}, s,
-                                       {{"probe", &probe, &wall, 0.1, std::nullopt}, {"probe", &probe, &wall, 0.1, std::nullopt}});
+                                       {{"probe", &probe, &wall, 0.1, std::nullopt, {}}, {"probe", &probe, &wall, 0.1, std::nullopt, {}}});
   ASSERT_FALSE(b.ok());
   EXPECT_EQ(b.error().message, "haptic loop: tool 2 'probe': two tools have that name");
 }
@@ -222,7 +222,7 @@ TEST(LoopTools, OneScriptedAndOneOpenHapticsDeviceInOneRealtimeRun) {
   s.watchdog.overrun_margin = 1.0;
   s.csv = fs::temp_directory_path() / "palpate_test_loop_tools_hd" / "run.csv";
   fs::create_directories(s.csv.parent_path());
-  auto built = palpate::HapticLoop::create(needle, {{&floor, 0.0}}, s, {{"probe", d->get(), &wall, 0.02, std::nullopt}});
+  auto built = palpate::HapticLoop::create(needle, {{&floor, 0.0}}, s, {{"probe", d->get(), &wall, 0.02, std::nullopt, {}}});
   ASSERT_TRUE(built.ok()) << built.error().message;
   ASSERT_TRUE((*built)->start());
   (*built)->wait();

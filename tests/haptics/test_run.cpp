@@ -103,7 +103,7 @@ TEST(Run, FixedTicksCsvAndSummary) {
   std::getline(csv, header);
   EXPECT_EQ(header,
             "t,tool_x,tool_y,tool_z,force_x,force_y,force_z,force_N,tick,tool_qw,tool_qx,tool_qy,"
-            "tool_qz,buttons,events,floor.force_N");
+            "tool_qz,buttons,events,passivity_energy,passivity_damping,floor.force_N");
   size_t rows = 0;
   std::string line;
   double last_t = 0, last_f = 0;

@@ -44,6 +44,10 @@ struct DeviceDef {
   double ramp_in = 0.1;             // s, forces ramp in from zero over this time at start
   double stiffness = 1000.0;        // N/m, device's nominal maximum stiffness (virtual coupling)
   double damping = 2.0;             // N·s/m, device's nominal maximum damping
+  bool passivity = true;            // the passivity observer and controller on its force path (safety.h)
+  double passivity_window = 0.03;   // s, free of force this long, the observer forgets its credit
+  double passivity_velocity_floor = 0.01;  // m/s, the controller's |v| floor
+  double passivity_max_damping = 0.9;      // the controller's damping cap, a fraction of `damping`
   std::string coupling = "direct";  // direct | virtual: force from the HIP, or a proxy coupling
   double proxy_mass = 0.001;        // kg, virtual coupling: mass of the tool proxy
   double overrun_margin = 0.0005;   // s, a tick's work this far past its deadline gives zero force

@@ -66,6 +66,7 @@ struct LoopSettings {
   double proxy_mass = 0.001;          // kg, virtual coupling
   double coupling_stiffness = 0;      // N/m, virtual coupling; 0 = the device's maximum
   WatchdogSettings watchdog;
+  PassivitySettings passivity;        // tool 0's passivity observer and controller (on by default)
   ToolDef tool;                       // tool.axis: the needle's (or blade's) direction at identity
                                       // orientation; each tick the tissues see orientation * tool.axis
   double blade_max_speed = 3.0;       // m/s, the fastest a blade's tip may move and still cut: a tick
@@ -99,6 +100,9 @@ struct LoopTool {
   // device button 1 its grasp), its force the tissues' (Tissue::second_tool_force). At most one, and
   // only with every tissue stepped on the haptic thread.
   std::optional<ToolDef> tissue_tool;
+  // Its passivity observer and controller (PassivityController; its damping capped by its device's
+  // limits().damping), on by default.
+  PassivitySettings passivity;
 };
 
 // One tool's newest tick, readable from any thread, never torn (a sequence lock the haptic thread
@@ -121,6 +125,8 @@ struct LoopToolStats {
   double max_force = 0;               // N, largest force sent to its device
   double max_force_limit = 0;         // N, its device's limit
   SafetyCounters safety;              // its own filter's counters
+  PassivityCounters passivity;        // its own passivity controller's
+  bool passivity_enabled = true;      // whether that controller adds damping (LoopTool::passivity)
   Vec3 last_force = Vec3::Zero();     // N
 };
 
@@ -145,6 +151,8 @@ struct LoopStats {
   std::uint64_t deadline_misses = 0;  // realtime ticks whose work ended after the next deadline
   std::uint64_t resyncs = 0;          // times the loop fell > 10 ticks behind and reset its clock
   SafetyCounters safety;
+  PassivityCounters passivity;        // tool 0's passivity controller: what it did so far
+  double passivity_energy = 0;        // J, tool 0's observed energy E now
   std::uint64_t recorder_dropped = 0; // rows the recorder's ring had no room for (should be 0)
   double max_force = 0;               // N, largest force sent
   TrainingMetrics metrics;            // the run's outcome and the trainee's metrics so far

@@ -88,4 +88,72 @@ class ForceSafety {
   std::uint32_t events_ = 0;
 };
 
+// Time-domain passivity (Hannaford & Ryu 2002, "Time-domain passivity control of haptic
+// interfaces", IEEE Trans. Robotics and Automation 18(1)): on every device's force path, before the
+// safety filter. The observer integrates the energy flowing from the hand into the simulation, the
+// work the hand did against the force the device held over each tick (zero-order hold: the force
+// sent at tick k−1 acts until tick k while the device moves from x_{k−1} to x_k),
+//   E_k = E_{k−1} − f_{k−1} · (x_k − x_{k−1}),
+// exact for a held force (Hannaford & Ryu's Δt·Σ f·v samples the velocity once a tick, and misses
+// the work a stiff contact does inside it). A passive tissue keeps E >= 0. When this tick's force
+// would make E < 0 by the next tick (its work predicted as −f_k · v_k · Δt: the simulation giving the
+// hand energy it never put in — a stiff wall sampled too slowly, a delay, a coupling too stiff), the
+// controller adds the damping that absorbs the deficit,
+//   α = −E_pred / (Δt · max(|v|², v_floor²)),   f ← f − α v,
+// capped at `max_damping_fraction` of the device's own damping limit (DeviceLimits::damping).
+// Forgetting: energy a tissue stored (a pressed spring) may come back to the hand, so it is never
+// forgotten while the tool is loaded; once the force sent has stayed below `free_force` for a whole
+// `window` nothing is stored between tool and tissue any more, and the credit left is energy the
+// tissue dissipated: it is forgotten (E ← min(E, 0)), so an old credit never hides a later active
+// contact. A deficit is never forgotten. docs/haptics.md, "Passivity".
+struct PassivitySettings {
+  bool enabled = true;                // false: the observer still runs (E in run.csv), no damping added
+  double window = 0.03;               // s, the tool free of force this long forgets its credit
+  double velocity_floor = 0.01;       // m/s, |v|² is floored at its square (1e-4 m²/s²)
+  double max_damping_fraction = 0.9;  // α <= this × DeviceLimits::damping
+  double free_force = 1e-3;           // N, a force below this stores nothing in the contact
+};
+
+// The settings a scene's device section gives (its passivity* keys).
+PassivitySettings passivity_settings(const DeviceDef& def) noexcept;
+
+// What the controller did over a run (summary.json, with the safety counters).
+struct PassivityCounters {
+  std::uint64_t active_ticks = 0;  // ticks it added damping
+  std::uint64_t capped_ticks = 0;  // of those, ticks α hit its cap (the deficit was not all absorbed)
+  double dissipated = 0;           // J, energy its damping absorbed (Σ α |v|² Δt)
+  double min_energy = 0;           // J, the lowest E observed after control
+  double max_damping = 0;          // N·s/m, the largest α
+};
+
+// One device's passivity observer and controller. noexcept, no allocation: the haptic thread's.
+class PassivityController {
+ public:
+  PassivityController(const DeviceLimits& limits, const PassivitySettings& settings);
+  // One tick: first observe the work done since the last tick (the force last sent, held while
+  // the device moved to `position`), then return the requested force with the damping that keeps
+  // the predicted E >= 0 (the request itself when none is needed, when disabled, or when an input
+  // is not finite: the safety filter deals with those). Then call sent() with what was sent.
+  Vec3 control(const Vec3& requested, const Vec3& position, const Vec3& velocity, double dt) noexcept;
+  // The force that left the safety filter this tick (held until the next control()).
+  void sent(const Vec3& force, double dt) noexcept;
+  double energy() const noexcept { return energy_; }   // J, E observed at this tick
+  double damping() const noexcept { return alpha_; }   // N·s/m, α this tick (0 = none)
+  const PassivityCounters& counters() const noexcept { return counters_; }
+  const PassivitySettings& settings() const noexcept { return settings_; }
+  double max_damping() const noexcept { return max_alpha_; }
+  void reset() noexcept;
+
+ private:
+  PassivitySettings settings_;
+  double max_alpha_ = 0;        // N·s/m
+  double energy_ = 0;           // J
+  double alpha_ = 0;            // N·s/m
+  double free_for_ = 0;         // s the force sent has stayed below free_force
+  bool have_position_ = false;  // a position to measure the next tick's motion from
+  Vec3 position_ = Vec3::Zero();   // m, the device at the last tick
+  Vec3 held_ = Vec3::Zero();       // N, the force sent at the last tick (held since)
+  PassivityCounters counters_;
+};
+
 }  // namespace palpate

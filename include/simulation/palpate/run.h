@@ -88,6 +88,7 @@ struct RunSummary {
   TimingFigures period;                           // s, wake-up to wake-up (realtime runs)
   std::uint64_t deadline_misses = 0;              // realtime ticks that ended after the next deadline
   SafetyCounters safety;
+  PassivityCounters passivity;                    // tool 0's passivity controller (safety.h)
   std::uint64_t recorder_dropped = 0;             // rows lost by the recorder (0 unless overloaded)
   std::vector<RunEvent> events;                   // the tissues' events and the "flashback"
   TrainingMetrics metrics;                        // outcome and the trainee's metrics (docs/cvc.md)
