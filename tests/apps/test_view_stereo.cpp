@@ -155,6 +155,31 @@ TEST_F(ViewStereo, AnaglyphDrawsTheLeftEyeInRedAndTheRightInCyan) {
   EXPECT_NEAR(cyan.y() - red.y(), 0.0, 1.0);
 }
 
+// Side by side, the mouse (here --probe) picks in the half it is over: the centre of either half
+// presses the sheet at the same point, the one under the centre of a mono window.
+TEST_F(ViewStereo, APressInEitherHalfReachesTheSamePoint) {
+  const fs::path file = dir_ / "above.yaml";
+  std::ofstream(file) << "name: view-stereo-press\nduration: 1\ndt: 0.001\noutput: out\n"
+                         "tool: {kind: sphere, radius: 0.003}\n"
+                         "device:\n  kind: scripted\n  waypoints:\n    - {t: 0, position: [0, 0.01, 0]}\n"
+                         "camera: {position: [0, 0.05, 0.045], target: [0, 0, 0], fov: 40, width: 400, height: 300}\n"
+                         "tissues:\n  - name: sheet\n    model: mass_spring\n"
+                         "    patch: {shape: flat, width: 0.04, height: 0.04, spacing: 0.004}\n"
+                         "    material: {topology: edges, solver: desbrun, stiffness: 200, gravity: false}\n"
+                         "    anchors: [0, 10, 110, 120]\n";
+  Vec3 tips[2];
+  for (int k = 0; k < 2; ++k) {
+    const Ran r = view(file.string() + " --frames 3 --exit --no-panels --no-report --stereo side-by-side --probe " +
+                       (k == 0 ? "100" : "300") + ",150,0.002 --overrun-margin 0.05");
+    ASSERT_EQ(r.code, 0) << r.out;
+    tips[k] = exit_tool(r.out);
+    ASSERT_TRUE(tips[k].allFinite()) << r.out;
+  }
+  EXPECT_LT((tips[0] - tips[1]).norm(), 1e-4) << tips[0].transpose() << " vs " << tips[1].transpose();
+  EXPECT_NEAR(tips[0].x(), 0.0, 1e-4);  // under the window's centre line: x = 0
+  EXPECT_LT(tips[0].y(), 0.0);          // pressed in
+}
+
 TEST_F(ViewStereo, QuadBufferIsRefusedWhereTheDisplayOffersNoStereo) {
   const Ran r = view(scene_.string() + " --frames 1 --exit --no-panels --no-report --stereo quad-buffer");
   EXPECT_EQ(r.code, 1) << r.out;
