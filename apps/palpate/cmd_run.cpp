@@ -75,6 +75,16 @@ struct RunArgs {
 };
 
 int run_command(const RunArgs& a) {
+  // Stereo frames: off-screen drawing has no left and right buffers, and stereo needs frames.
+  if (a.frame.stereo.mode == StereoMode::quad_buffer) {
+    fmt::print(stderr, "palpate run: --stereo quad-buffer: frames are drawn off-screen (OSMesa), which has no "
+                       "stereo (left and right) buffers; use anaglyph, side-by-side or top-bottom\n");
+    return kExitUsage;
+  }
+  if (a.frame.stereo.mode != StereoMode::mono && a.frames == 0 && a.frame_times.empty()) {
+    fmt::print(stderr, "palpate run: --stereo draws the frames in stereo; give --frames N or --frame-times\n");
+    return kExitUsage;
+  }
   auto scene = load_scene(a.scene);
   if (!scene) {
     fmt::print(stderr, "palpate run: {}\n", scene.error().message);
@@ -329,6 +339,7 @@ void add_run_command(CLI::App& app) {
                 "A needle scene writes report.html (outcome, metrics against published figures, force plot, "
                 "the ultrasound image at the flashback, the frames): not this time");
   run->add_flag("--frame-particles", args->frame.particles, "Frames: draw the particles / masses");
+  add_stereo_flags(run, args->frame.stereo, "Frames");
   run->add_flag("--frame-links", args->frame.links, "Frames: draw neighbour links / springs");
   run->add_option("--frame-resolution", args->frame.resolution,
                   "Frames: Bézier segments per patch edge (grids) or PN level (meshes)")

@@ -130,6 +130,7 @@ void add_view_command(CLI::App& app) {
   view->add_flag_callback("--no-panels", [args] { args->options.panels = false; }, "Hide the ImGui panels");
   view->add_flag_callback("--screenshot-panels", [args] { args->options.screenshot_panels = true; },
                           "Take the exit --screenshot with the panels drawn (as the trainee sees the window)");
+  add_stereo_flags(view, args->options.stereo, "Draw the window");
   add_output_flags(view, args->options.quiet, args->verbose);
   view->callback([args] { throw CLI::RuntimeError(view_command(*args)); });
 }

@@ -3,11 +3,13 @@
 
 #include "exit_codes.h"
 
+#include <palpate/render.h>
 #include <palpate/scene_def.h>
 
 #include <CLI/CLI.hpp>
 
 #include <filesystem>
+#include <string>
 
 namespace palpate::cli {
 void add_run_command(CLI::App& app);
@@ -24,4 +26,7 @@ void add_output_flags(CLI::App* command, bool& quiet, bool& verbose);
 // --verbose: what a scene loads and from where (its file, devices, each tissue's mesh or patch and
 // predictor); `cache` is the run's --cache ("" = the default).
 void print_scene_inputs(const SceneDef& scene, const std::filesystem::path& cache);
+// --stereo MODE (render.h's StereoMode, by parse_stereo_mode), --eye-separation MM and
+// --convergence M into `stereo`, which must outlive the parse; `what` begins --stereo's help.
+void add_stereo_flags(CLI::App* command, StereoOptions& stereo, const std::string& what);
 }  // namespace palpate::cli

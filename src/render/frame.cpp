@@ -177,6 +177,7 @@ Result<RenderScene> frame_scene(const SceneDef& scene, std::span<const TissueSna
                                 std::span<const FrameSphere> spheres) {
   RenderScene rs;
   rs.camera = scene.camera ? *scene.camera : framing_camera(tissues, tip);
+  rs.stereo = options.stereo;
   storage.clear();
   index_storage.clear();
   // No reallocation: the surfaces' spans point into it.

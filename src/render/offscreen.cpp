@@ -49,6 +49,10 @@ Status check_camera(const CameraDef& c) {
 
 Status check_scene(const RenderScene& s) {
   if (Status c = check_camera(s.camera); !c) return c;
+  if (Status c = check_stereo(s.stereo); !c) return Error{"render: " + c.error().message};
+  if (s.stereo.mode == StereoMode::quad_buffer)
+    return Error{"render: stereo quad-buffer needs a window whose OpenGL context has left and right buffers; "
+                 "an off-screen (OSMesa) image has none: use anaglyph, side-by-side or top-bottom"};
   if (s.supersample < 1 || s.supersample > 4)
     return Error{"render: supersample " + std::to_string(s.supersample) + "; expected 1 to 4"};
   for (size_t i = 0; i < s.surfaces.size(); ++i) {
@@ -120,7 +124,12 @@ std::vector<std::array<int, 2>> grid_lines(int rows, int cols) {
 
 Result<Image> render_rgba(const RenderScene& scene) {
   if (Status ok = check_scene(scene); !ok) return ok.error();
-  return render::draw_offscreen(scene);
+  if (scene.stereo.mode == StereoMode::mono) return render::draw_offscreen(scene);
+  auto left = render::draw_offscreen(scene, Eye::left);
+  if (!left) return left.error();
+  auto right = render::draw_offscreen(scene, Eye::right);
+  if (!right) return right.error();
+  return render::compose_stereo(scene.stereo.mode, *left, *right);
 }
 
 Status render_png(const RenderScene& scene, const std::filesystem::path& file) {

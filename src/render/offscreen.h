@@ -6,6 +6,8 @@
 
 #include <palpate/render.h>
 
+#include <optional>
+
 namespace palpate::render {
 
 inline constexpr double kPi = 3.14159265358979323846;
@@ -20,7 +22,12 @@ struct CameraFrame {
 
 CameraFrame camera_frame(const CameraDef& c);
 
-// Draws a scene render_rgba checked (check_scene) into an image of the camera's size.
-Result<Image> draw_offscreen(const RenderScene& scene);
+// Draws a scene render_rgba checked (check_scene) into an image of the camera's size: from the
+// camera, or from one of its stereo eyes (scene.stereo's separation and convergence;
+// stereo_eye_matrices).
+Result<Image> draw_offscreen(const RenderScene& scene, std::optional<Eye> eye = std::nullopt);
+
+// Two eyes' images of one size as one (anaglyph, side_by_side or top_bottom; RenderScene::stereo).
+Image compose_stereo(StereoMode mode, const Image& left, const Image& right);
 
 }  // namespace palpate::render

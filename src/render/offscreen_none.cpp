@@ -5,7 +5,7 @@
 
 namespace palpate::render {
 
-Result<Image> draw_offscreen(const RenderScene&) {
+Result<Image> draw_offscreen(const RenderScene&, std::optional<Eye>) {
   return built_without("render", "OSMesa", "OSMESA", "cannot draw off-screen (frames, images)");
 }
 

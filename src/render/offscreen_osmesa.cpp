@@ -22,28 +22,6 @@
 namespace palpate::render {
 namespace {
 
-// --- camera --------------------------------------------------------------------------------------
-
-// OpenGL's view and projection matrices (column-major, as glLoadMatrixd wants).
-Eigen::Matrix4d view_matrix(const CameraFrame& f) {
-  Eigen::Matrix4d v = Eigen::Matrix4d::Identity();
-  v.block<1, 3>(0, 0) = f.right.transpose();
-  v.block<1, 3>(1, 0) = f.up.transpose();
-  v.block<1, 3>(2, 0) = -f.forward.transpose();
-  v.block<3, 1>(0, 3) = -v.block<3, 3>(0, 0) * f.eye;
-  return v;
-}
-
-Eigen::Matrix4d projection_matrix(const CameraFrame& f, double near, double far) {
-  Eigen::Matrix4d p = Eigen::Matrix4d::Zero();
-  p(0, 0) = f.focal / f.aspect;
-  p(1, 1) = f.focal;
-  p(2, 2) = (far + near) / (near - far);
-  p(2, 3) = 2 * far * near / (near - far);
-  p(3, 2) = -1;
-  return p;
-}
-
 // --- geometry ------------------------------------------------------------------------------------
 
 // A small lit triangle mesh built at render time (tool, arrow).
@@ -316,7 +294,7 @@ void depth_range(const RenderScene& s, const CameraFrame& f, double& near, doubl
 
 }  // namespace
 
-Result<Image> draw_offscreen(const RenderScene& scene) {
+Result<Image> draw_offscreen(const RenderScene& scene, std::optional<Eye> eye) {
   const int ss = scene.supersample;
   const int w = scene.camera.width * ss, h = scene.camera.height * ss;
 
@@ -329,10 +307,16 @@ Result<Image> draw_offscreen(const RenderScene& scene) {
   auto program = compile_program();
   if (!program) return program.error();
 
-  const CameraFrame frame = camera_frame(scene.camera);
+  CameraFrame frame = camera_frame(scene.camera);
   double near = 0, far = 0;
-  depth_range(scene, frame, near, far);
-  const Eigen::Matrix4d proj = projection_matrix(frame, near, far), view = view_matrix(frame);
+  depth_range(scene, frame, near, far);  // the same for both eyes: they sit beside the camera, not ahead
+  // The camera's own matrices (separation 0), or an off-axis eye's (render.h, "Stereo").
+  const EyeMatrices matrices = stereo_eye_matrices(
+      frame.eye, frame.right, frame.up, frame.forward, scene.camera.fov, frame.aspect, near, far,
+      eye ? scene.stereo.eye_separation : 0.0, stereo_convergence(scene.camera, scene.stereo), eye.value_or(Eye::left));
+  frame.eye = matrices.position;  // the translucent surfaces sort back to front from it
+  const Eigen::Matrix4d& proj = matrices.projection;
+  const Eigen::Matrix4d& view = matrices.view;
 
   glViewport(0, 0, w, h);
   glClearColor(scene.background.x(), scene.background.y(), scene.background.z(), 1.0f);

@@ -78,11 +78,17 @@ bool Viewer::init_window(std::string& error) {
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
   glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
   glfwWindowHint(GLFW_DEPTH_BITS, 24);
+  const bool quad_buffer = options_.stereo.mode == StereoMode::quad_buffer;
+  if (quad_buffer) glfwWindowHint(GLFW_STEREO, GLFW_TRUE);  // a hard constraint: no stereo, no window
   const CameraDef cam = scene_.camera.value_or(CameraDef{});
   const int width = options_.width > 0 ? options_.width : cam.width;
   const int height = options_.height > 0 ? options_.height : cam.height;
   const std::string title = "palpate — " + scene_.name;
   window_ = glfwCreateWindow(width, height, title.c_str(), nullptr, nullptr);
+  if (!window_ && quad_buffer) {
+    error = kNoQuadBuffer;
+    return false;
+  }
   if (!window_) {
     error = "cannot open a " + std::to_string(width) + "x" + std::to_string(height) +
             " window with OpenGL 3.3 core (no display, or a driver without 3.3; under xvfb-run set "
@@ -90,6 +96,14 @@ bool Viewer::init_window(std::string& error) {
     return false;
   }
   glfwMakeContextCurrent(window_);
+  if (quad_buffer) {  // a driver may hand out a context without the buffers it was asked for
+    GLboolean stereo = GL_FALSE;
+    glGetBooleanv(GL_STEREO, &stereo);
+    if (!stereo) {
+      error = kNoQuadBuffer;
+      return false;
+    }
+  }
   glfwSwapInterval(options_.exit_after ? 0 : 1);
   glfwSetWindowUserPointer(window_, this);
   // Ours first: ImGui's backend chains to callbacks installed before it.
@@ -237,6 +251,7 @@ void Viewer::frame_input(int width, int height) {
   const double dx = x - last_x_, dy = y - last_y_;
   last_x_ = x;
   last_y_ = y;
+  pointer_view(x, y, width, height);  // stereo: the eye's half of the window the pointer is in
   const double notches = scroll_;
   scroll_ = 0;
   if (options_.exit_after) return;  // a scripted run ignores whatever the pointer does
@@ -263,7 +278,7 @@ void Viewer::frame_input(int width, int height) {
     }
   }
   const Vec3 eye = camera_.eye();
-  const Vec3 dir = camera_.ray_direction(x, y, width, height);
+  const Vec3 dir = camera_.ray_direction(x, y, width, height);  // in the view under the pointer
   if (right && !pressing_ && !ui) {
     // Press: touch the surface under the cursor (or, off the tissue, the plane through the
     // camera's target facing it), starting 1 mm past touching.
@@ -305,7 +320,10 @@ bool Viewer::scripted_probe_step(int width, int height) {
     case ProbeStage::pick: {
       const ProbeRequest& p = *options_.probe;
       const Vec3 eye = camera_.eye();
-      const Vec3 dir = camera_.ray_direction(p.x, p.y, width, height);
+      double x = p.x, y = p.y;
+      int w = width, h = height;
+      pointer_view(x, y, w, h);  // stereo: the eye's half of the window the pixel is in
+      const Vec3 dir = camera_.ray_direction(x, y, w, h);
       const auto hit = pick_surface(eye, dir);
       if (!hit) {
         fmt::print(stderr, "palpate view: --probe {},{}: no tissue surface under that pixel of the {}x{} window\n",

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <palpate/core.h>
+#include <palpate/render.h>
 #include <palpate/scene_def.h>
 
 #include <filesystem>
@@ -51,6 +52,11 @@ struct ViewerOptions {
   // "" = report.html in the scene's output folder; no_report: none.
   std::filesystem::path report;
   bool no_report = false;
+  // --stereo (docs/viewer.md, "Stereo"): anaglyph, side by side, top and bottom (each eye in its
+  // half of the window, at that half's aspect), or quad-buffer (a stereo OpenGL context: refused,
+  // exit 1, where the display offers none). convergence 0: the orbit camera's distance to its target,
+  // following the zoom.
+  StereoOptions stereo;
 };
 
 // Open the window and run until it is closed (or, with exit_after, until done). Returns the

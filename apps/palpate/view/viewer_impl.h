@@ -63,6 +63,13 @@ inline const Vec3f kLinkColor(0.85f, 0.85f, 0.9f);
 inline const Vec3f kProbeColor(0.55f, 0.62f, 0.72f);   // the transducer's grey-blue plastic
 inline const Vec3f kPlaneColor(0.3f, 0.95f, 0.85f);    // cyan: the image plane's outline
 
+// --stereo quad-buffer where the display's OpenGL offers no stereo context (a virtual X server, most
+// desktop drivers unless stereo is enabled in their settings).
+inline constexpr const char* kNoQuadBuffer =
+    "--stereo quad-buffer: the display offers no stereo OpenGL context (no framebuffer with left and right "
+    "back buffers, GLFW_STEREO); quad-buffered stereo needs a GPU and driver with stereo enabled and a "
+    "stereo display; use anaglyph, side-by-side or top-bottom";
+
 // The probe as a box (viewer_scene.cpp).
 void append_probe_box(TriangleMesh& mesh, const Vec3& face_centre, const Vec3& beam, const Vec3& lateral,
                       double width, double thickness, double height);
@@ -87,6 +94,13 @@ class Viewer {
   void frame_input(int width, int height);
   void update_views();
   void draw_scene(int fb_width, int fb_height);
+  // The world as the camera (or one stereo eye) sees it, into the current viewport.
+  void draw_world(const Eigen::Matrix4f& projection_view, const Vec3& eye);
+  // The matrices of one eye of a viewport aspect (width / height): off-axis (render.h, "Stereo").
+  EyeMatrices eye_matrices(Eye eye, double aspect) const;
+  // A window point (pixels, top-left origin) into the view under it: side by side or top and bottom,
+  // the eye's half of the window it lies in (x, y within the half; width, height the half's).
+  void pointer_view(double& x, double& y, int& width, int& height) const;
   void draw_panels();
   void finish_rebuild();
   std::optional<double> pick_surface(const Vec3& origin, const Vec3& dir) const;

@@ -38,10 +38,84 @@ void Viewer::update_views() {
   }
 }
 
+EyeMatrices Viewer::eye_matrices(Eye eye, double aspect) const {
+  const double convergence = options_.stereo.convergence > 0 ? options_.stereo.convergence : camera_.distance;
+  return stereo_eye_matrices(camera_.eye(), camera_.right(), camera_.up(), camera_.forward(), camera_.fov, aspect,
+                             camera_.near_plane(), camera_.far_plane(), options_.stereo.eye_separation, convergence,
+                             eye);
+}
+
+void Viewer::pointer_view(double& x, double& y, int& width, int& height) const {
+  if (options_.stereo.mode == StereoMode::side_by_side) {
+    const int left = width / 2;
+    if (x >= left) x -= left, width -= left;
+    else width = left;
+  } else if (options_.stereo.mode == StereoMode::top_bottom) {
+    const int top = height / 2;
+    if (y >= top) y -= top, height -= top;
+    else height = top;
+  }
+  width = std::max(width, 1);
+  height = std::max(height, 1);
+}
+
 void Viewer::draw_scene(int fb_width, int fb_height) {
+  const StereoMode mode = options_.stereo.mode;
+  auto aspect_of = [](int w, int h) { return h > 0 ? static_cast<double>(w) / h : 1.0; };
+  auto draw_eye = [&](Eye eye, double aspect) {
+    const EyeMatrices m = eye_matrices(eye, aspect);
+    draw_world((m.projection * m.view).cast<float>(), m.position);
+  };
+  if (mode == StereoMode::quad_buffer) {
+    // The left and right back buffers (the window was made with GLFW_STEREO and has them: init_window).
+    glDrawBuffer(GL_BACK_LEFT);
+    gl_->clear(kBackground, fb_width, fb_height);
+    draw_eye(Eye::left, aspect_of(fb_width, fb_height));
+    glDrawBuffer(GL_BACK_RIGHT);
+    gl_->clear(kBackground, fb_width, fb_height);
+    draw_eye(Eye::right, aspect_of(fb_width, fb_height));
+    glDrawBuffer(GL_BACK);  // the panels over both
+    return;
+  }
   gl_->clear(kBackground, fb_width, fb_height);
-  const double aspect = fb_height > 0 ? static_cast<double>(fb_width) / fb_height : 1.0;
-  gl_->set_camera(camera_.projection_matrix(aspect) * camera_.view_matrix(), camera_.eye());
+  switch (mode) {
+    case StereoMode::anaglyph:
+      // Red from the left eye, green and blue from the right; each eye hides only its own surfaces.
+      glColorMask(GL_TRUE, GL_FALSE, GL_FALSE, GL_TRUE);
+      draw_eye(Eye::left, aspect_of(fb_width, fb_height));
+      glClear(GL_DEPTH_BUFFER_BIT);
+      glColorMask(GL_FALSE, GL_TRUE, GL_TRUE, GL_TRUE);
+      draw_eye(Eye::right, aspect_of(fb_width, fb_height));
+      glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+      break;
+    case StereoMode::side_by_side: {  // the left eye on the left half
+      const int left = fb_width / 2;
+      glViewport(0, 0, left, fb_height);
+      draw_eye(Eye::left, aspect_of(left, fb_height));
+      glViewport(left, 0, fb_width - left, fb_height);
+      draw_eye(Eye::right, aspect_of(fb_width - left, fb_height));
+      glViewport(0, 0, fb_width, fb_height);
+      break;
+    }
+    case StereoMode::top_bottom: {  // the left eye on the top half (GL's rows run bottom up)
+      const int top = fb_height / 2, bottom = fb_height - top;
+      glViewport(0, bottom, fb_width, top);
+      draw_eye(Eye::left, aspect_of(fb_width, top));
+      glViewport(0, 0, fb_width, bottom);
+      draw_eye(Eye::right, aspect_of(fb_width, bottom));
+      glViewport(0, 0, fb_width, fb_height);
+      break;
+    }
+    default: {
+      const double aspect = aspect_of(fb_width, fb_height);
+      draw_world(camera_.projection_matrix(aspect) * camera_.view_matrix(), camera_.eye());
+      break;
+    }
+  }
+}
+
+void Viewer::draw_world(const Eigen::Matrix4f& projection_view, const Vec3& eye) {
+  gl_->set_camera(projection_view, eye);
   for (size_t i = 0; i < tissues_.size(); ++i) {
     const TissueSnapshot& s = tissues_[i]->current();  // the one update_views() tessellated
     const TissueView& v = views_[i];

@@ -65,6 +65,76 @@ struct RenderArrow {
   Vec3f color = Vec3f(1.0f, 0.8f, 0.1f);
 };
 
+// --- Stereo: two eyes, off-axis (asymmetric) frusta, never toed-in (docs/viewer.md, "Stereo").
+// Each eye sits ±separation/2 along the camera's right axis and looks the same way as the camera;
+// its frustum is shifted sideways so that both frusta frame the same rectangle on the plane at the
+// convergence distance. Toeing the eyes in instead (both aimed at the convergence point) tilts their
+// image planes against each other: a point off the image's centre lands at different heights in the
+// two eyes (vertical parallax), which the eyes cannot fuse comfortably.
+enum class StereoMode {
+  mono,          // one eye, the camera's (no stereo)
+  anaglyph,      // one image: the left eye's red channel, the right eye's green and blue (red–cyan glasses)
+  side_by_side,  // one image, the left eye on the left half, the right eye on the right half
+  top_bottom,    // one image, the left eye on the top half, the right eye on the bottom half
+  quad_buffer,   // left and right back buffers of a stereo OpenGL context (a window only, where offered)
+};
+
+// The modes a user may name, as the flags and the errors spell them.
+inline constexpr const char* kStereoModeNames = "anaglyph, side-by-side, top-bottom or quad-buffer";
+
+// "anaglyph" → StereoMode::anaglyph, ...; anything else is an error naming the text and the modes
+// (kStereoModeNames). "mono" is not a user's mode: leaving the flag out is.
+Result<StereoMode> parse_stereo_mode(const std::string& text);
+const char* stereo_mode_name(StereoMode mode);  // "anaglyph", ...; "mono"
+
+inline constexpr double kDefaultEyeSeparation = 0.063;  // m, an adult's mean interpupillary distance
+
+struct StereoOptions {
+  StereoMode mode = StereoMode::mono;
+  double eye_separation = kDefaultEyeSeparation;  // m, between the two eyes' centres of projection, ≥ 0
+  double convergence = 0;  // m along the view where the eyes' images coincide (zero disparity);
+                           // 0: the camera's distance to its target
+};
+
+// Fails naming the field on a separation outside [0, 1] m or a convergence negative or not finite.
+Status check_stereo(const StereoOptions& stereo);
+
+enum class Eye { left = -1, right = 1 };
+
+// One eye's OpenGL matrices (column-major, as glLoadMatrixd / glUniformMatrix4 want them).
+struct EyeMatrices {
+  Vec3 position = Vec3::Zero();                          // m, the eye's centre of projection
+  Eigen::Matrix4d view = Eigen::Matrix4d::Identity();    // world → eye
+  Eigen::Matrix4d projection = Eigen::Matrix4d::Identity();
+};
+
+// The off-axis eye of a camera at `position` with the orthonormal frame right, up, forward (unit),
+// a vertical field of view `fov` (degrees), `aspect` = width / height of the eye's image, near and
+// far planes (m, 0 < near < far): the eye at position + e·separation/2·right (e = −1 left, +1 right),
+// the view direction unchanged, and the projection's x shifted by
+//   Δx_ndc = −e · (focal / aspect) · separation / (2 · convergence),   focal = 1 / tan(fov / 2),
+// which brings a point at depth `convergence` back to where the centre camera draws it. With
+// separation 0 it is the plain perspective camera. Pure math; no OpenGL.
+EyeMatrices stereo_eye_matrices(const Vec3& position, const Vec3& right, const Vec3& up, const Vec3& forward,
+                                double fov, double aspect, double near, double far, double separation,
+                                double convergence, Eye eye);
+
+// The convergence distance in use: stereo.convergence, or |camera.target − camera.position| for 0.
+double stereo_convergence(const CameraDef& camera, const StereoOptions& stereo);
+
+// The horizontal disparity, in pixels of one eye's image (camera.width × camera.height), of a point
+// at depth z (m along the camera's view) between its right and left eye images, x_right − x_left:
+//   d = f_px · s · (1/D − 1/z),   f_px = (height / 2) / tan(fov / 2),
+// s the eye separation, D the convergence distance. Zero at z = D; positive (uncrossed: behind the
+// screen) beyond it, negative (crossed: in front) nearer; tending to f_px · s / D far away. It holds
+// for any point at that depth, on the axis or off it, and no point has vertical disparity.
+double stereo_disparity_px(const CameraDef& camera, const StereoOptions& stereo, double z);
+
+// Where a point lands in one eye's image (as project_to_pixel does for the camera): pixels from the
+// top-left corner of that eye's camera.width × camera.height image; nothing behind the eye.
+std::optional<Eigen::Vector2d> project_to_pixel(const CameraDef& camera, const StereoOptions& stereo, Eye eye,
+                                                const Vec3& point);
+
 // Everything one image shows. Lit by a light above-left of the camera, fixed to it.
 struct RenderScene {
   CameraDef camera;                     // position, target, vertical fov (deg), width, height (px)
@@ -75,14 +145,19 @@ struct RenderScene {
   std::optional<RenderArrow> force;
   Vec3f background = Vec3f(0.12f, 0.13f, 0.16f);
   int supersample = 2;                  // render at k x k the size and average down (anti-aliasing), 1..4
+  // Mono draws the camera's image. anaglyph: one camera-sized image; side_by_side: 2·width ×
+  // height, each eye at the camera's full size; top_bottom: width × 2·height; quad_buffer is a
+  // window's (palpate view) and refused off-screen: an OSMesa context has no stereo buffers.
+  StereoOptions stereo;
 };
 
 
 // The largest image side off-screen drawing makes (render_rgba, frames of `palpate run --frames`).
 inline constexpr int kMaxOffscreenSide = 4096;  // pixels
 
-// Draw the scene off-screen (no window, no GPU). Fails, naming the element and what was
-// expected, on a bad camera (size outside 1..4096 pixels, fov outside (0, 180) degrees, position
+// Draw the scene off-screen (no window, no GPU), both eyes of a stereo scene composed into one
+// image as scene.stereo.mode says. Fails, naming the element and what was expected, on a bad
+// stereo (check_stereo; quad_buffer off-screen), a bad camera (size outside 1..4096 pixels, fov outside (0, 180) degrees, position
 // equal to target, non-finite values), a span whose size is not a multiple of 3, normals not
 // matching positions, an index out of range, an unknown tool kind; or when OpenGL is unavailable
 // (a build without OSMesa, PALPATE_WITH_OSMESA=OFF: the scene is checked, then refused naming it).
@@ -112,6 +187,7 @@ struct FrameOptions {
   bool translucent_cover = true;  // skin and fat (roles skin, fat) see-through, showing the needle
                                   // and the vessels under them, the vessels nearly opaque (the tip
                                   // shows in the lumen); false: every surface opaque
+  StereoOptions stereo;           // the frame in stereo (RenderScene::stereo); mono by default
 };
 
 // The ultrasound probe in a frame: a box of its footprint (width along the array × thickness)
