@@ -1,7 +1,8 @@
 // cmd_doctor.cpp — `palpate doctor`: what a lab needs before its first trainee, checked on this
 // machine, each line with what to do when it fails: the CPU and the vector units the models use,
 // real-time priority and locked memory for the haptic thread, the device libraries (OpenHaptics'
-// libHD.so, whether the device opens; Force Dimension's libdhd), a display for `palpate view`,
+// libHD.so, whether the device opens; Force Dimension's libdhd and how many devices it sees), a
+// display for `palpate view`,
 // gnuplot for the plots, and the predictor cache.
 #include <palpate/palpate.h>
 
@@ -91,6 +92,7 @@ bool on_path(const std::string& program) {
 
 struct DoctorArgs {
   std::string hd_library = DeviceDef{}.hd_library;
+  std::string dhd_library = DeviceDef{}.dhd_library;  // "" = libdhd.so.3, then libdhd.so
   bool open_device = true;
   bool quiet = false, verbose = false;
 };
@@ -169,13 +171,29 @@ int doctor_command(const DoctorArgs& a) {
       }
     }
   }
-  // Force Dimension (omega, sigma, delta): palpate has no backend for it yet (issue 38).
-  if (void* dhd = ::dlopen("libdhd.so.3", RTLD_NOW | RTLD_LOCAL)) {
-    r.line(Verdict::warn, "forcedimension", "found " + loaded_path(dhd, "libdhd.so.3") +
-                                                  "; palpate has no Force Dimension backend yet");
-    ::dlclose(dhd);
+  // Force Dimension (omega.x, sigma.7, delta.x, Novint Falcon): the library and how many devices
+  // it sees. No device is opened: opening one that is not calibrated moves its arm (drdAutoInit).
+  const ForceDimensionProbe fd = probe_forcedimension(a.dhd_library);
+  if (!fd.loaded) {
+    r.line(Verdict::warn, "forcedimension", fmt::format("the DHD library ({}) not found", fd.library),
+           "install the Force Dimension SDK (its lib/ on LD_LIBRARY_PATH, or in /usr/local/lib and `sudo ldconfig`), "
+           "or give its path: `palpate doctor --dhd-library /path/to/libdhd.so.3` and device.dhd_library in the "
+           "scene; the scripted and replay devices need neither");
   } else {
-    r.line(Verdict::ok, "forcedimension", "libdhd.so.3 not installed (palpate has no Force Dimension backend yet)");
+    r.line(Verdict::ok, "forcedimension",
+           fmt::format("found {}{}", fd.library, fd.version.empty() ? "" : " (SDK " + fd.version + ")"));
+    const std::string usb =
+        "check power and the USB cable; on Linux your user needs access to the device's USB node: install the "
+        "udev rule in docs/haptics.md (\"Force Dimension devices\": /etc/udev/rules.d/60-palpate-forcedimension.rules, "
+        "then `sudo udevadm control --reload` and plug it in again), or run as root";
+    if (fd.devices > 0)
+      r.line(Verdict::ok, "  devices", fmt::format("{} Force Dimension device{} connected", fd.devices,
+                                                   fd.devices == 1 ? "" : "s"));
+    else
+      r.line(Verdict::warn, "  devices",
+             fd.devices == 0 ? "no Force Dimension device found (none connected, or no access to its USB device)"
+                             : fd.error,
+             usb);
   }
 
   // The viewer's window, the run's plots, the predictor cache.
@@ -215,6 +233,8 @@ void add_doctor_command(CLI::App& app) {
                 "whether the device opens, a display, gnuplot, the predictor cache");
   c->add_option("--hd-library", args->hd_library, "The OpenHaptics HD library to look for (file name or path)")
       ->capture_default_str();
+  c->add_option("--dhd-library", args->dhd_library,
+                "The Force Dimension DHD library to look for (file name or path; default libdhd.so.3, then libdhd.so)");
   c->add_flag_callback("--no-device-open", [args] { args->open_device = false; },
                        "Only look for the libraries; do not open the device");
   add_output_flags(c, args->quiet, args->verbose);  // --verbose: every check is printed already

@@ -291,7 +291,7 @@ void add_run_command(CLI::App& app) {
                 "Pace the run by the wall clock on a 1 kHz haptic thread (same outputs, plus period "
                 "and deadline-miss statistics)");
   run->add_option("--device", args->device, "Device backend instead of the scene's")
-      ->check(CLI::IsMember({"scripted", "replay", "openhaptics"}));
+      ->check(CLI::IsMember({"scripted", "replay", "openhaptics", "forcedimension"}));
   run->add_option("--replay", args->recording, "Play back a recorded run.csv (implies --device replay)")
       ->check(CLI::ExistingFile);
   run->add_option("--coupling", args->coupling, "Force rendering: direct (from the HIP) or virtual")

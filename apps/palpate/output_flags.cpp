@@ -30,6 +30,9 @@ void print_device(const char* who, const DeviceDef& d) {
     from += ", recording " + std::filesystem::absolute(d.recording).string();
   else if (d.kind == "openhaptics")
     from += ", library " + d.hd_library;
+  else if (d.kind == "forcedimension")
+    from += ", library " + (d.dhd_library.empty() ? std::string("libdhd.so.3") : d.dhd_library) +
+            (d.dhd_serial > 0 ? fmt::format(", serial {}", d.dhd_serial) : fmt::format(", index {}", d.dhd_index));
   fmt::print("loaded     {} device: {}\n", who, from);
 }
 

@@ -31,7 +31,7 @@ std::span<const Param<ToolDef>> param_table(const ToolDef*) {
 std::span<const Param<DeviceDef>> param_table(const DeviceDef*) {
   using D = DeviceDef;
   static const Param<D> table[] = {
-      {"kind", &D::kind, 0, 0, "", "where the tool's pose comes from", "scripted|replay|openhaptics"},
+      {"kind", &D::kind, 0, 0, "", "where the tool's pose comes from", "scripted|replay|openhaptics|forcedimension"},
       {"trajectory", &D::trajectory, 0, 0, "",
        "scripted: CSV of t,x,y,z (s, m) instead of `waypoints`; must exist"},
       {"recording", &D::recording, 0, 0, "", "replay: a run's CSV to play back; required, must exist"},
@@ -59,6 +59,11 @@ std::span<const Param<DeviceDef>> param_table(const DeviceDef*) {
        "watchdog: a physics thread silent this long sends zero force"},
       {"hd_library", &D::hd_library, 0, 0, "", "openhaptics: the HD library (file name or path) loaded at run time"},
       {"hd_device", &D::hd_device, 0, 0, "", "openhaptics: HD device configuration name (\"\" = the default device)"},
+      {"dhd_library", &D::dhd_library, 0, 0, "",
+       "forcedimension: the DHD library (file name or path) loaded at run time; \"\" = libdhd.so.3, then libdhd.so"},
+      {"dhd_index", &D::dhd_index, 0, 15, "", "forcedimension: which connected device to open (0 = the first)"},
+      {"dhd_serial", &D::dhd_serial, 0, 65535, "",
+       "forcedimension: the serial number of the device to open (0 = by dhd_index); not with dhd_index"},
   };
   return table;
 }

@@ -43,8 +43,9 @@ Result<std::unique_ptr<Device>> make_device(const DeviceDef& d, const Vec3& tool
     return std::unique_ptr<Device>(new ReplayDevice(std::move(*samples), limits));
   }
   if (d.kind == "openhaptics") return open_openhaptics(d.hd_library, d.hd_device, limits);
+  if (d.kind == "forcedimension") return open_forcedimension(d.dhd_library, d.dhd_index, d.dhd_serial, limits);
   return Error{where + ": " + key + " kind '" + d.kind +
-               "' is not one of scripted | replay | openhaptics (use kind: scripted)"};
+               "' is not one of scripted | replay | openhaptics | forcedimension (use kind: scripted)"};
 }
 
 }  // namespace palpate

@@ -136,6 +136,10 @@ DeviceDef parse_device(const Ctx& c, const YAML::Node& node, int line, const std
     c.fail(k.line_or("recording", line), at + ".recording",
            "only a replay device plays a recording (kind is '" + dev.kind + "')");
   }
+  // forcedimension: one device, by its index or its serial number, not both.
+  if (k.lines.count("dhd_index") && k.lines.count("dhd_serial"))
+    c.fail(k.line_or("dhd_serial", line), at + ".dhd_serial",
+           "give either 'dhd_index' or 'dhd_serial', not both (a serial number names one device)");
   return dev;
 }
 

@@ -185,8 +185,8 @@ Result<std::unique_ptr<Simulation>> Simulation::build(const SceneDef& scene_in, 
   }
   for (const Want& w : wants) {
     Device* given = m.override_for(w.name);
-    if (!given && w.def->kind == "openhaptics" && !options.realtime)
-      return Error{where + ": " + w.key + " kind 'openhaptics' needs a realtime run (`palpate run --realtime`, "
+    if (!given && (w.def->kind == "openhaptics" || w.def->kind == "forcedimension") && !options.realtime)
+      return Error{where + ": " + w.key + " kind '" + w.def->kind + "' needs a realtime run (`palpate run --realtime`, "
                    "SimulationOptions::realtime): a headless run is not paced by the wall clock"};
   }
   for (size_t k = 0; k < wants.size(); ++k) {

@@ -115,7 +115,8 @@ TEST(HapticReplay, RecordingErrorsNameFileLineAndColumn) {
   d = palpate::make_device(s);
   ASSERT_FALSE(d.ok());
   EXPECT_EQ(d.error().message,
-            "scene: device kind 'joystick' is not one of scripted | replay | openhaptics (use kind: scripted)");
+            "scene: device kind 'joystick' is not one of scripted | replay | openhaptics | forcedimension (use kind: "
+            "scripted)");
 }
 
 TEST(HapticVirtualDevice, PoseSetFromAnotherThreadIsNeverTorn) {

@@ -35,7 +35,7 @@ struct Waypoint {
 };
 
 struct DeviceDef {
-  std::string kind = "scripted";    // scripted | replay | openhaptics
+  std::string kind = "scripted";    // scripted | replay | openhaptics | forcedimension
   std::vector<Waypoint> waypoints;  // scripted: timed waypoints, linearly interpolated (slerp)
   std::filesystem::path trajectory; // scripted: CSV of t,x,y,z[,dx,dy,dz] instead of waypoints
   std::filesystem::path recording;  // replay: a run's CSV
@@ -54,6 +54,9 @@ struct DeviceDef {
   double stall_timeout = 0.05;      // s, a physics thread silent this long (or ten of its periods, when longer) gives zero force
   std::string hd_library = "libHD.so";  // openhaptics: the HD library dlopen'ed at run time
   std::string hd_device;            // openhaptics: device configuration name ("" = default)
+  std::string dhd_library;          // forcedimension: the DHD library ("" = libdhd.so.3, then libdhd.so)
+  int dhd_index = 0;                // forcedimension: which connected device (0 = the first)
+  int dhd_serial = 0;               // forcedimension: the device's serial number (0 = by dhd_index)
 };
 
 struct CameraDef {

@@ -1,5 +1,6 @@
 // palpate/device.h — haptic devices: what goes in (pose, velocity, buttons), what comes out
-// (force, torque), the device's limits, and the backends (scripted, replay, virtual, openhaptics).
+// (force, torque), the device's limits, and the backends (scripted, replay, virtual, openhaptics,
+// forcedimension).
 #pragma once
 
 #include <palpate/core.h>
@@ -23,6 +24,8 @@ struct DeviceLimits {
   Vec3 workspace_min = Vec3(-0.08, -0.06, -0.035);  // m (Geomagic Touch: 160 x 120 x 70 mm)
   Vec3 workspace_max = Vec3(0.08, 0.06, 0.035);
   bool has_torque = false;        // whether write()'s torque reaches the hand (a Touch: no)
+  double max_torque = 0;          // N·m, largest torque a backend sends (0: none; forcedimension sets it)
+  double max_gripper_force = 0;   // N, largest gripper force (0: no active gripper; forcedimension sets it)
 };
 
 struct DeviceState {
@@ -31,6 +34,7 @@ struct DeviceState {
   Quat orientation = Quat::Identity();
   Vec3 velocity = Vec3::Zero();          // m/s
   std::uint32_t buttons = 0;             // bit i = button i + 1 pressed
+  double gripper_angle = 0;              // rad, a gripper's opening (0 for a device without one)
 };
 
 // The direction the needle points for a device orientation: `orientation` (unit) applied to
@@ -53,6 +57,9 @@ class Device {
   virtual bool read(double t, DeviceState& out) noexcept = 0;
   // Send force (N) and torque (N·m). Callers pass only values that went through safety.
   virtual void write(const Vec3& force, const Vec3& torque) noexcept = 0;
+  // Send a gripper force (N, the vendor's sign) to a device with an active gripper
+  // (limits().max_gripper_force > 0); the others ignore it. Haptic thread, like write().
+  virtual void write_gripper(double /*force*/) noexcept {}
   // Its calibration when it opened; `unknown` for a device without one (scripted, replay, virtual)
   // or a vendor library that cannot tell.
   virtual Calibration calibration() const noexcept { return Calibration::unknown; }
@@ -161,7 +168,31 @@ class VirtualDevice final : public Device {
 Result<std::unique_ptr<Device>> open_openhaptics(const std::string& library, const std::string& config,
                                                  const DeviceLimits& limits);
 
-// The device a scene asks for (scripted, replay or openhaptics).
+// Force Dimension devices (omega.3/6/7, sigma.7, delta.3/6, and the Novint Falcon, which the SDK
+// drives) through the vendor's DHD library, loaded at run time with dlopen (no SDK needed to
+// build). `library`: file name or path; "" = libdhd.so.3, then libdhd.so. `serial` > 0 opens the
+// device with that serial number, else the `index`-th one (0 = the first). Its type, name and
+// nominal limits are read as it opens; the scene's `limits` may only lower them. Forces are enabled
+// only once the device is calibrated (DRD's drdAutoInit where it is not); the SDK's watchdog and
+// velocity threshold stay on. A servo thread of the backend's own exchanges pose and force with the
+// SDK at 1 kHz through lock-free triple buffers, so read/write never block on USB, and guards what
+// it sends (finite, clamped, rate-limited, zero when stale), torque and gripper force included.
+// Errors say what is missing and what to do (install the SDK, the udev rule for USB access).
+Result<std::unique_ptr<Device>> open_forcedimension(const std::string& library, int index, int serial,
+                                                    const DeviceLimits& limits);
+
+// What `palpate doctor` reports about the DHD library: whether it loads (and from where), its
+// version, and how many Force Dimension devices it sees (-1: could not ask). Opens no device.
+struct ForceDimensionProbe {
+  bool loaded = false;
+  std::string library;   // the file it was loaded from, or the names tried
+  std::string error;     // why it did not load, or why the count failed
+  std::string version;   // the SDK's major.minor.release-revision, "" when unknown
+  int devices = -1;
+};
+ForceDimensionProbe probe_forcedimension(const std::string& library);
+
+// The device a scene asks for (scripted, replay, openhaptics or forcedimension).
 Result<std::unique_ptr<Device>> make_device(const SceneDef& scene);
 // The limits a DeviceDef sets (max force and rate, nominal stiffness and damping).
 DeviceLimits device_limits(const DeviceDef& def);
