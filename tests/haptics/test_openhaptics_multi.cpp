@@ -4,6 +4,7 @@
 // the same configuration twice refused, and a device's fault leaving the other device going.
 #include <palpate/device.h>
 #include <palpate/haptics.h>
+#include <palpate/scene.h>
 
 #include "haptics/doubles.h"
 #include "haptics/fake_hd_client.h"
@@ -197,6 +198,29 @@ TEST(HapticOpenHapticsMulti, TheSameConfigurationTwiceIsRefusedClearly) {
   left->reset();
   auto reopened = palpate::open_openhaptics(PALPATE_FAKE_HD, "Left", {});
   EXPECT_TRUE(reopened.ok()) << reopened.error().message;
+}
+
+// In a scene file, two openhaptics tools on one configuration are refused at load, naming the key
+// and the line, and the key that has it; two configurations, or a scripted tool beside, load.
+TEST(HapticOpenHapticsMulti, TheSameConfigurationTwiceInASceneIsRefusedNamingTheKey) {
+  const auto error_of = [](const std::string& yaml) {
+    auto r = palpate::parse_scene(yaml, "s.yaml");
+    return r.ok() ? std::string("(loaded)") : r.error().message;
+  };
+  const std::string two = "device:\n  kind: openhaptics\n  hd_device: Left\nprobe:\n  device:\n    kind: openhaptics\n"
+                          "    hd_device: ";
+  EXPECT_EQ(error_of(two + "Left\nanatomy: {kind: neck}\n"),
+            "s.yaml:7: probe.device.hd_device: 'Left' is already used by device.hd_device (line 3); each openhaptics "
+            "tool needs its own device: name the configurations Touch Setup gave your devices");
+  EXPECT_EQ(error_of(two + "Right\nanatomy: {kind: neck}\n"), "(loaded)");
+  // Both on the default configuration ("": hd_device left out).
+  EXPECT_EQ(error_of("device: {kind: openhaptics}\ngrasper:\n  device: {kind: openhaptics}\nanatomy: {kind: neck}\n"),
+            "s.yaml:3: grasper.device.hd_device: the default device (\"\") is already used by device.hd_device (line 1); "
+            "each openhaptics tool needs its own device: name the configurations Touch Setup gave your devices");
+  // A scripted tool names no HD device, whatever its hd_device says.
+  EXPECT_EQ(error_of("device: {kind: openhaptics, hd_device: Left}\ngrasper:\n  device: {hd_device: Left}\n"
+                     "anatomy: {kind: neck}\n"),
+            "(loaded)");
 }
 
 // Each device's own limits, read with it current: its nominal maximum force and the library's
