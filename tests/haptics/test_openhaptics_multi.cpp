@@ -4,6 +4,7 @@
 // the same configuration twice refused, and a device's fault leaving the other device going.
 #include <palpate/device.h>
 #include <palpate/haptics.h>
+#include <palpate/run.h>
 #include <palpate/scene.h>
 
 #include "haptics/doubles.h"
@@ -11,6 +12,7 @@
 #include "run_csv_rows.h"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <dlfcn.h>
 
@@ -365,4 +367,63 @@ TEST(HapticOpenHapticsMulti, ADeviceThatFailsIsZeroedAndTheOtherGoesOn) {
   expect_servo_forces(hd.all_forces("Right"), 3.3, step, "Right");
   EXPECT_EQ(hd.frame_errors(), 0);
   fs::remove_all(csv.parent_path());
+}
+
+// The same through run_scene, as `palpate run --realtime` runs a scene file: the scene's tool on
+// "Left" and its grasper on "Right" (a small ball of tissue between them), each with its device's
+// own limit in summary.json; "Right" unplugged 300 frames in. The run finishes, its outputs whole:
+// run.csv a row per tick, summary.json the grasper's device_failed and none for the needle.
+TEST(HapticOpenHapticsMulti, ARunWithTwoTouchDevicesOneUnpluggedWritesItsOutputsWhole) {
+  FakeHd hd;
+  ASSERT_NE(hd.lib, nullptr) << ::dlerror();
+  hd.reset(1);
+  hd.device_set_limits("Left", 2.0, 1.0);  // below the scene's 3.3 N
+  const double left_mm[3] = {0.0, 30.0, 0.0}, right_mm[3] = {0.0, 11.0, 0.0};  // above the ball; on its top
+  hd.device_set_poses("Left", left_mm, 1);
+  hd.device_set_poses("Right", right_mm, 1);
+  hd.device_fault("Right", kCommError, 1, 300);
+  const std::string lib = PALPATE_FAKE_HD;
+  auto scene = palpate::parse_scene(R"(
+dt: 0.001
+duration: 0.8
+tool: {kind: sphere, radius: 0.002}
+device: {kind: openhaptics, hd_library: ")" + lib + R"(", hd_device: Left}
+grasper:
+  radius: 0.003
+  device: {kind: openhaptics, hd_library: ")" + lib + R"(", hd_device: Right}
+tissues:
+  - name: ball
+    model: mass_spring
+    patch: {shape: sphere, radius: 0.01, spacing: 0.004, center: [0, 0, 0]}
+    material: {topology: tet_edges, solver: sparse, youngs_modulus: 20000, poisson_ratio: 0.4,
+               contact: vertices, contact_stiffness: 400}
+)",
+                                    "two_touch.yaml", ".");
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  const fs::path out = fs::temp_directory_path() / "palpate_test_openhaptics_multi_run";
+  fs::remove_all(out);
+  palpate::RunOptions o;
+  o.out = out;
+  o.plots = false;
+  o.realtime = true;
+  o.realtime_priority = false;
+  auto r = palpate::run_scene(*scene, o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_FALSE(r->interrupted);
+  EXPECT_EQ(r->ticks, 800u);
+  std::ifstream in(out / "summary.json");
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["ticks"], 800);
+  EXPECT_EQ(j["safety"]["device_failed"], 0);
+  EXPECT_EQ(j["safety"]["max_force_N"], 2.0);  // Left's own, lower than the scene's
+  ASSERT_TRUE(j.contains("grasper")) << j.dump();
+  EXPECT_GT(j["grasper"]["safety"]["device_failed"].get<int>(), 300);  // from about its 300th frame on
+  EXPECT_EQ(j["grasper"]["safety"]["max_force_N"], 3.3);
+  const auto rows = palpate::test::read_run_rows(out / "run.csv");
+  ASSERT_EQ(rows.size(), 800u);
+  for (size_t k = 0; k < rows.size(); ++k) ASSERT_EQ(rows[k].tick, long(k)) << "a row per tick";
+  EXPECT_EQ(hd.device_initialised("Left") + hd.device_initialised("Right"), 0);  // both closed
+  EXPECT_EQ(hd.scheduler_running(), 0);
+  EXPECT_EQ(hd.frame_errors(), 0);
+  fs::remove_all(out);
 }
