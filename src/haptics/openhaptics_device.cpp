@@ -142,7 +142,8 @@ std::vector<std::unique_ptr<HdLibrary>>& registry() {
 }
 
 std::string config_text(const std::string& config) {
-  return config.empty() ? std::string("the default HD device configuration") : "the HD device configuration '" + config + "'";
+  return config.empty() ? std::string("the default HD device configuration")
+                        : "the HD device configuration '" + config + "'";
 }
 
 class OpenHapticsDevice final : public Device {
@@ -170,7 +171,8 @@ class OpenHapticsDevice final : public Device {
     api_.hdMakeCurrentDevice(hhd_);
     api_.hdDisableDevice(hhd_);
     auto& names = lib_.configs;
-    if (auto it = std::find(names.begin(), names.end(), config_); it != names.end()) names.erase(it);
+    if (auto it = std::find(names.begin(), names.end(), config_); it != names.end())
+      names.erase(it);
     if (!names.empty()) {
       api_.hdStartScheduler();
       (void)api_.hdGetError();
@@ -179,7 +181,9 @@ class OpenHapticsDevice final : public Device {
     }
     ::dlclose(api_.lib);
     auto& libs = registry();
-    libs.erase(std::remove_if(libs.begin(), libs.end(), [&](const auto& l) { return l.get() == &lib_; }), libs.end());
+    libs.erase(
+        std::remove_if(libs.begin(), libs.end(), [&](const auto& l) { return l.get() == &lib_; }),
+        libs.end());
   }
   OpenHapticsDevice(const OpenHapticsDevice&) = delete;
   OpenHapticsDevice& operator=(const OpenHapticsDevice&) = delete;
@@ -432,7 +436,8 @@ Result<std::unique_ptr<HdLibrary>> load_library(const std::string& library) {
 
 }  // namespace
 
-Result<std::unique_ptr<Device>> open_openhaptics(const std::string& library, const std::string& config,
+Result<std::unique_ptr<Device>> open_openhaptics(const std::string& library,
+                                                 const std::string& config,
                                                  const DeviceLimits& limits) {
   std::unique_lock<std::mutex> lock(registry_mutex());
   auto& libs = registry();
@@ -440,10 +445,11 @@ Result<std::unique_ptr<Device>> open_openhaptics(const std::string& library, con
   // (HD would answer HD_DEVICE_ALREADY_INITIATED, and two safety filters would fight over one arm).
   for (const auto& l : libs)
     if (std::find(l->configs.begin(), l->configs.end(), config) != l->configs.end())
-      return Error{"openhaptics: " + config_text(config) +
-                   " is already open in this process, by another tool: each tool needs its own device "
-                   "(set device.hd_device, probe.device.hd_device, grasper.device.hd_device to the "
-                   "configuration names Touch Setup gave your devices)"};
+      return Error{
+          "openhaptics: " + config_text(config) +
+          " is already open in this process, by another tool: each tool needs its own device "
+          "(set device.hd_device, probe.device.hd_device, grasper.device.hd_device to the "
+          "configuration names Touch Setup gave your devices)"};
   HdLibrary* lib = nullptr;
   for (const auto& l : libs)
     if (l->path == library) lib = l.get();
@@ -467,17 +473,24 @@ Result<std::unique_ptr<Device>> open_openhaptics(const std::string& library, con
       lib->scheduler_running = true;
     } else {
       ::dlclose(api.lib);
-      libs.erase(std::remove_if(libs.begin(), libs.end(), [&](const auto& l) { return l.get() == lib; }), libs.end());
+      libs.erase(
+          std::remove_if(libs.begin(), libs.end(), [&](const auto& l) { return l.get() == lib; }),
+          libs.end());
     }
-    const std::string which = config.empty() ? std::string("(default configuration)") : "'" + config + "'";
+    const std::string which =
+        config.empty() ? std::string("(default configuration)") : "'" + config + "'";
     if (e.errorCode == HD_DEVICE_ALREADY_INITIATED)
-      return Error{"openhaptics: the haptic device " + which +
-                   " is already initialised (HD error 0x0301, HD_DEVICE_ALREADY_INITIATED): another "
-                   "program holds it (a second palpate, Touch Diagnostic), or two configuration names of "
-                   "this scene are the same device; close the other program, or give each tool its own "
-                   "device" + kScriptedHint};
-    return Error{"openhaptics: no haptic device " + which + " could be opened (HD error " + hex(e.errorCode) +
-                 "): check that the Touch is connected and set up with Touch Setup" + kScriptedHint};
+      return Error{
+          "openhaptics: the haptic device " + which +
+          " is already initialised (HD error 0x0301, HD_DEVICE_ALREADY_INITIATED): another "
+          "program holds it (a second palpate, Touch Diagnostic), or two configuration names of "
+          "this scene are the same device; close the other program, or give each tool its own "
+          "device" +
+          kScriptedHint};
+    return Error{"openhaptics: no haptic device " + which + " could be opened (HD error " +
+                 hex(e.errorCode) +
+                 "): check that the Touch is connected and set up with Touch Setup" +
+                 kScriptedHint};
   }
   lib->configs.push_back(config);
   auto dev = std::make_unique<OpenHapticsDevice>(*lib, hhd, config, limits);

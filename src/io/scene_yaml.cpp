@@ -332,12 +332,14 @@ void check_hd_devices(const Ctx& c, const Keys& k, const SceneDef& s) {
     int line;  // of its hd_device key, else of its device section
   };
   std::vector<Use> uses;
-  const auto add = [&](const std::string& key, const DeviceDef& def, const YAML::Node& section, int section_line) {
+  const auto add = [&](const std::string& key, const DeviceDef& def, const YAML::Node& section,
+                       int section_line) {
     if (def.kind != "openhaptics") return;
     int line = section_line;
     if (section.IsMap())
       for (auto it = section.begin(); it != section.end(); ++it)
-        if (it->first.IsScalar() && it->first.Scalar() == "hd_device") line = line_of(it->first, section_line);
+        if (it->first.IsScalar() && it->first.Scalar() == "hd_device")
+          line = line_of(it->first, section_line);
     uses.push_back({key, &def, line});
   };
   if (const auto n = k.sections.find("device"); n != k.sections.end())
@@ -349,7 +351,9 @@ void check_hd_devices(const Ctx& c, const Keys& k, const SceneDef& s) {
                                                                          : nullptr;
     if (n == k.sections.end() || !def) continue;
     const YAML::Node dev = child(n->second, "device");
-    add(std::string(tool) + ".device.hd_device", *def, dev, dev.IsDefined() ? line_of(dev, k.value_line(tool, 1)) : k.value_line(tool, 1));
+    const int line = k.value_line(tool, 1);
+    add(std::string(tool) + ".device.hd_device", *def, dev,
+        dev.IsDefined() ? line_of(dev, line) : line);
   }
   for (size_t i = 1; i < uses.size(); ++i)
     for (size_t j = 0; j < i; ++j)
@@ -358,8 +362,8 @@ void check_hd_devices(const Ctx& c, const Keys& k, const SceneDef& s) {
                (uses[i].def->hd_device.empty() ? std::string("the default device (\"\")")
                                                : "'" + uses[i].def->hd_device + "'") +
                    " is already used by " + uses[j].key + " (line " + std::to_string(uses[j].line) +
-                   "); each openhaptics tool needs its own device: name the configurations Touch Setup "
-                   "gave your devices");
+                   "); each openhaptics tool needs its own device: name the configurations "
+                   "Touch Setup gave your devices");
 }
 
 SceneDef parse_root(const Ctx& c, const YAML::Node& root) {

@@ -1,10 +1,11 @@
 // fake_hd.cpp — a stand-in for the OpenHaptics HD library (libHD.so) for the tests: it records the
 // calls it receives, runs scheduled callbacks on its own 1 kHz "servo" thread, and models several
-// devices by configuration name ("Default Device", "Left", "Right"): each with its own pose sequence
-// (mm, as HD does), stylus rotation (by default 90 degrees about y), forces, nominal maximum force,
-// force-impulse limit and faults. hdGet/hdSet act on the current device (hdMakeCurrentDevice), as
-// in HD. Control and inspection functions are prefixed fake_hd_; those without a device name act
-// on the default device, "Default Device" (hdInitDevice(HD_DEFAULT_DEVICE) opens it).
+// devices by configuration name ("Default Device", "Left", "Right"): each with its own pose
+// sequence (mm, as HD does), stylus rotation (by default 90 degrees about y), forces, nominal
+// maximum force, force-impulse limit and faults. hdGet/hdSet act on the current device
+// (hdMakeCurrentDevice), as in HD. Control and inspection functions are prefixed fake_hd_; those
+// without a device name act on the default device, "Default Device"
+// (hdInitDevice(HD_DEFAULT_DEVICE) opens it).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -28,18 +29,18 @@ struct ErrorInfo {
 };
 
 constexpr unsigned kInvalidHandle = 0xFFFFFFFF;
-constexpr unsigned kDeviceFault = 0x0300;            // HD_DEVICE_FAULT
-constexpr unsigned kAlreadyInitiated = 0x0301;       // HD_DEVICE_ALREADY_INITIATED
-constexpr unsigned kExceededImpulse = 0x0202;        // HD_EXCEEDED_MAX_FORCE_IMPULSE
-constexpr unsigned kInvalidEnum = 0x0100;            // HD_INVALID_ENUM
+constexpr unsigned kDeviceFault = 0x0300;       // HD_DEVICE_FAULT
+constexpr unsigned kAlreadyInitiated = 0x0301;  // HD_DEVICE_ALREADY_INITIATED
+constexpr unsigned kExceededImpulse = 0x0202;   // HD_EXCEEDED_MAX_FORCE_IMPULSE
+constexpr unsigned kInvalidEnum = 0x0100;       // HD_INVALID_ENUM
 
 struct Scheduled {
   HDCallback fn;
   void* data;
   unsigned long handle;
   bool done;
-  int device;       // the device the callback last began a frame on (-1: none yet)
-  bool synchronous; // hdScheduleSynchronous: run until done, then the caller is woken
+  int device;        // the device the callback last began a frame on (-1: none yet)
+  bool synchronous;  // hdScheduleSynchronous: run until done, then the caller is woken
 };
 
 // One device (a configuration name the fake knows).
@@ -53,13 +54,13 @@ struct FakeDevice {
   double rotation[9] = {0, 0, -1, 0, 1, 0, 1, 0, 0};
   std::vector<double> forces;  // x,y,z per hdSetDoublev(HD_CURRENT_FORCE)
   double last_force[3] = {0, 0, 0};
-  double max_force = 3.3;        // HD_NOMINAL_MAX_FORCE, N (a Touch's); 0 = a device reporting none
-  double impulse_limit = 1.0;    // HD_SOFTWARE_FORCE_IMPULSE_LIMIT, N per ms (per servo frame)
-  bool nan_position = false;     // HD_CURRENT_POSITION reads NaN
-  bool stalled = false;          // its callbacks are not run (the device stopped answering)
-  unsigned fault = 0;            // an HD error its frames raise at hdEndFrame (0 = none)
-  bool fault_persistent = false; // raised every frame (unplugged) or once
-  long fault_at_frame = -1;      // the fault starts at this frame of the device (-1: as set)
+  double max_force = 3.3;      // HD_NOMINAL_MAX_FORCE, N (a Touch's); 0 = a device reporting none
+  double impulse_limit = 1.0;  // HD_SOFTWARE_FORCE_IMPULSE_LIMIT, N per ms (per servo frame)
+  bool nan_position = false;   // HD_CURRENT_POSITION reads NaN
+  bool stalled = false;        // its callbacks are not run (the device stopped answering)
+  unsigned fault = 0;          // an HD error its frames raise at hdEndFrame (0 = none)
+  bool fault_persistent = false;  // raised every frame (unplugged) or once
+  long fault_at_frame = -1;       // the fault starts at this frame of the device (-1: as set)
   std::vector<unsigned int> enabled;
 };
 
@@ -71,19 +72,22 @@ struct Fake {
   std::vector<Scheduled> scheduled;
   unsigned long next_handle = 1;
   bool device_present = true;
-  int current = -1;            // index of the current device
-  int running_callback = -1;   // index into `scheduled` of the callback the servo runs now
-  int frame_errors = 0;        // begin/end mismatches, gets outside a frame, a frame on a device not current
-  int init_while_running = 0;  // hdInitDevice called while the scheduler ran
-  int start_while_running = 0; // hdStartScheduler called while it ran
+  int current = -1;           // index of the current device
+  int running_callback = -1;  // index into `scheduled` of the callback the servo runs now
+  int frame_errors =
+      0;  // begin/end mismatches, gets outside a frame, a frame on a device not current
+  int init_while_running = 0;   // hdInitDevice called while the scheduler ran
+  int start_while_running = 0;  // hdStartScheduler called while it ran
   unsigned int error = 0;
   unsigned int error_hhd = 0;
   std::thread servo;
   std::atomic<bool> running{false};
-  std::atomic<bool> stalled{false};  // the servo calls no callback (a library blocked inside a call)
-  // hdCheckCalibration's answer (HD_CALIBRATION_OK 0x5000, _NEEDS_UPDATE 0x5001, _NEEDS_MANUAL_INPUT
-  // 0x5002; a process that is not a test sets it with FAKE_HD_CALIBRATION=ok|update|manual) and
-  // the styles the device supports (HD_CALIBRATION_STYLE; a Touch's: the inkwell, 1 << 2).
+  std::atomic<bool> stalled{
+      false};  // the servo calls no callback (a library blocked inside a call)
+  // hdCheckCalibration's answer (HD_CALIBRATION_OK 0x5000, _NEEDS_UPDATE 0x5001,
+  // _NEEDS_MANUAL_INPUT 0x5002; a process that is not a test sets it with
+  // FAKE_HD_CALIBRATION=ok|update|manual) and the styles the device supports (HD_CALIBRATION_STYLE;
+  // a Touch's: the inkwell, 1 << 2).
   unsigned int calibration = initial_calibration();
   int calibration_styles = 1 << 2;
   int update_style = -1;  // the style of the last hdUpdateCalibration, -1 = none
@@ -320,16 +324,26 @@ void hdGetDoublev(unsigned int what, double* out) {
       break;
     case 0x2052: {  // HD_CURRENT_TRANSFORM: the stylus rotation, translation = position
       const double* r = d->rotation;
-      const double m[16] = {r[0], r[1], r[2], 0, r[3], r[4], r[5], 0, r[6], r[7], r[8], 0, 0, 0, 0, 1};
+      const double m[16] = {r[0], r[1], r[2], 0, r[3], r[4], r[5], 0,
+                            r[6], r[7], r[8], 0, 0,    0,    0,    1};
       std::memcpy(out, m, sizeof m);
       for (int k = 0; k < 3; ++k) out[12 + k] = n ? d->poses[i * 3 + size_t(k)] : 0.0;
       break;
     }
-    case 0x2603: out[0] = d->max_force; break;      // HD_NOMINAL_MAX_FORCE, N
-    case 0x2607: out[0] = d->impulse_limit; break;  // HD_SOFTWARE_FORCE_IMPULSE_LIMIT, N/ms
-    case 0x2602: out[0] = 0.8; break;    // HD_NOMINAL_MAX_STIFFNESS, N/mm
-    case 0x2609: out[0] = 0.002; break;  // HD_NOMINAL_MAX_DAMPING, N·s/mm
-    default: f.error = kInvalidEnum;
+    case 0x2603:
+      out[0] = d->max_force;
+      break;  // HD_NOMINAL_MAX_FORCE, N
+    case 0x2607:
+      out[0] = d->impulse_limit;
+      break;  // HD_SOFTWARE_FORCE_IMPULSE_LIMIT, N/ms
+    case 0x2602:
+      out[0] = 0.8;
+      break;  // HD_NOMINAL_MAX_STIFFNESS, N/mm
+    case 0x2609:
+      out[0] = 0.002;
+      break;  // HD_NOMINAL_MAX_DAMPING, N·s/mm
+    default:
+      f.error = kInvalidEnum;
   }
 }
 void hdGetIntegerv(unsigned int what, int* out) {
@@ -337,9 +351,12 @@ void hdGetIntegerv(unsigned int what, int* out) {
   Fake& f = fake();
   std::lock_guard<std::mutex> lock(f.m);
   FakeDevice* d = f.cur();
-  if (what == 0x2000 && d) *out = int(d->frame % 2 == 0 ? 1 : 0);  // HD_CURRENT_BUTTONS: toggles
-  else if (what == 0x2555) *out = f.calibration_styles;            // HD_CALIBRATION_STYLE
-  else f.error = kInvalidEnum;
+  if (what == 0x2000 && d)
+    *out = int(d->frame % 2 == 0 ? 1 : 0);  // HD_CURRENT_BUTTONS: toggles
+  else if (what == 0x2555)
+    *out = f.calibration_styles;  // HD_CALIBRATION_STYLE
+  else
+    f.error = kInvalidEnum;
 }
 unsigned int hdCheckCalibration() {
   count("hdCheckCalibration");
@@ -352,8 +369,10 @@ void hdUpdateCalibration(unsigned int style) {
   Fake& f = fake();
   std::lock_guard<std::mutex> lock(f.m);
   f.update_style = int(style);
-  if ((int(style) & f.calibration_styles) == 0) f.error = kInvalidEnum;
-  else if (f.calibration == 0x5001) f.calibration = 0x5000;
+  if ((int(style) & f.calibration_styles) == 0)
+    f.error = kInvalidEnum;
+  else if (f.calibration == 0x5001)
+    f.calibration = 0x5000;
 }
 // HD_CURRENT_FORCE, in a frame of the current device. As the library does (its software impulse
 // check), a change of force above the impulse limit in one frame is an error, not sent.
@@ -380,7 +399,8 @@ void hdSetDoublev(unsigned int what, const double* v) {
 ErrorInfo hdGetError() {
   Fake& f = fake();
   std::lock_guard<std::mutex> lock(f.m);
-  ErrorInfo e{f.error, 0, f.error ? f.error_hhd : (f.current >= 0 ? unsigned(f.current) + 1 : kInvalidHandle)};
+  ErrorInfo e{f.error, 0,
+              f.error ? f.error_hhd : (f.current >= 0 ? unsigned(f.current) + 1 : kInvalidHandle)};
   f.error = 0;
   return e;
 }
@@ -433,7 +453,9 @@ int fake_hd_update_style() {
   return fake().update_style;
 }
 // While `on`, the servo thread runs no callback: the library blocked inside a call.
-void fake_hd_stall(int on) { fake().stalled.store(on != 0); }
+void fake_hd_stall(int on) {
+  fake().stalled.store(on != 0);
+}
 int fake_hd_calls(const char* name) {
   Fake& f = fake();
   std::lock_guard<std::mutex> lock(f.m);
@@ -454,7 +476,9 @@ int fake_hd_start_while_running() {
   std::lock_guard<std::mutex> lock(fake().m);
   return fake().start_while_running;
 }
-int fake_hd_scheduler_running() { return fake().running.load() ? 1 : 0; }
+int fake_hd_scheduler_running() {
+  return fake().running.load() ? 1 : 0;
+}
 
 // --- per device, by configuration name ("" = the default device).
 // While `on`, the device's callbacks are not run: it stopped answering; the others go on.
@@ -517,15 +541,21 @@ void fake_hd_set_max_force(double newtons) {
   std::lock_guard<std::mutex> lock(fake().m);
   named(fake(), nullptr)->max_force = newtons;
 }
-void fake_hd_set_poses(const double* xyz_mm, int n) { fake_hd_device_set_poses(nullptr, xyz_mm, n); }
+void fake_hd_set_poses(const double* xyz_mm, int n) {
+  fake_hd_device_set_poses(nullptr, xyz_mm, n);
+}
 // The stylus rotation from now on: a 3x3 matrix, column-major (as HD_CURRENT_TRANSFORM holds it).
 void fake_hd_set_rotation(const double* columns) {
   std::lock_guard<std::mutex> lock(fake().m);
   FakeDevice* d = named(fake(), nullptr);
   std::memcpy(d->rotation, columns, sizeof d->rotation);
 }
-int fake_hd_enabled(unsigned int cap) { return fake_hd_device_enabled(nullptr, cap); }
+int fake_hd_enabled(unsigned int cap) {
+  return fake_hd_device_enabled(nullptr, cap);
+}
 // Copy up to max forces (x,y,z each) into out; returns how many were recorded in all.
-int fake_hd_forces(double* out, int max) { return fake_hd_device_forces(nullptr, out, max); }
+int fake_hd_forces(double* out, int max) {
+  return fake_hd_device_forces(nullptr, out, max);
+}
 
 }  // extern "C"

@@ -53,7 +53,8 @@ struct FakeHd {
     sym(device_frames, "fake_hd_device_frames");
     sym(device_initialised, "fake_hd_device_initialised");
     sym(device_enabled, "fake_hd_device_enabled");
-    set_calibration = reinterpret_cast<void (*)(unsigned, int)>(::dlsym(lib, "fake_hd_set_calibration"));
+    set_calibration =
+        reinterpret_cast<void (*)(unsigned, int)>(::dlsym(lib, "fake_hd_set_calibration"));
     update_style = reinterpret_cast<int (*)()>(::dlsym(lib, "fake_hd_update_style"));
     stall = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_stall"));
     set_nan_position = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_set_nan_position"));
@@ -76,9 +77,11 @@ struct FakeHd {
   // Every force the servo sent, in order (to the named device; null: the default one).
   std::vector<Vec3> all_forces(const char* device = nullptr) {
     std::vector<double> f(3 * 200000);
-    const int n = std::min(device ? device_forces(device, f.data(), 200000) : forces(f.data(), 200000), 200000);
+    const int n = std::min(
+        device ? device_forces(device, f.data(), 200000) : forces(f.data(), 200000), 200000);
     std::vector<Vec3> out;
-    for (int i = 0; i < n; ++i) out.emplace_back(f[size_t(i) * 3], f[size_t(i) * 3 + 1], f[size_t(i) * 3 + 2]);
+    for (int i = 0; i < n; ++i)
+      out.emplace_back(f[size_t(i) * 3], f[size_t(i) * 3 + 1], f[size_t(i) * 3 + 2]);
     return out;
   }
 };

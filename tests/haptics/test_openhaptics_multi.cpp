@@ -37,7 +37,8 @@ constexpr unsigned kCommError = 0x0302;    // HD_COMM_ERROR: the device unplugge
 // Waits (at most 2 s) until `done()`; returns it.
 template <class F>
 bool eventually(F done) {
-  for (int i = 0; i < 2000 && !done(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  for (int i = 0; i < 2000 && !done(); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   return done();
 }
 
@@ -50,7 +51,8 @@ palpate::DeviceState first_pose(palpate::Device& dev) {
 
 // Every force the fake's servo sent one device: finite, within `max_force`, changed by at most
 // `max_step` per frame, ending at zero.
-void expect_servo_forces(const std::vector<Vec3>& sent, double max_force, double max_step, const char* which) {
+void expect_servo_forces(const std::vector<Vec3>& sent, double max_force, double max_step,
+                         const char* which) {
   ASSERT_FALSE(sent.empty()) << which;
   Vec3 last = Vec3::Zero();
   for (size_t i = 0; i < sent.size(); ++i) {
@@ -104,7 +106,8 @@ TEST(HapticOpenHapticsMulti, TwoDevicesShareOneSchedulerEachWithItsOwnPoseAndFor
   EXPECT_LT((first_pose(**right).position - Vec3(-0.040, 0.005, 0.015)).norm(), 1e-15);
   for (int i = 0; i < 50; ++i) {
     palpate::DeviceState a, b;
-    (*left)->read(0.0, a);  // (false only when the loaded machine held the servo 20 ms: the pose stands)
+    (*left)->read(0.0,
+                  a);  // (false only when the loaded machine held the servo 20 ms: the pose stands)
     (*right)->read(0.0, b);
     ASSERT_LT((a.position - Vec3(0.010, 0.020, 0.030)).norm(), 1e-15);
     ASSERT_LT((b.position - Vec3(-0.040, 0.005, 0.015)).norm(), 1e-15);
@@ -126,9 +129,12 @@ TEST(HapticOpenHapticsMulti, TwoDevicesShareOneSchedulerEachWithItsOwnPoseAndFor
   EXPECT_TRUE(eventually([&] {
     press(1);
     return last_of("Left") == Vec3(0, 1.25, 0) && last_of("Right") == Vec3(-0.75, 0, 0);
-  })) << last_of("Left").transpose() << " / " << last_of("Right").transpose();
-  for (const Vec3& f : hd.all_forces("Left")) ASSERT_TRUE(f.x() == 0 && f.z() == 0) << f.transpose();
-  for (const Vec3& f : hd.all_forces("Right")) ASSERT_TRUE(f.y() == 0 && f.z() == 0) << f.transpose();
+  })) << last_of("Left").transpose()
+      << " / " << last_of("Right").transpose();
+  for (const Vec3& f : hd.all_forces("Left"))
+    ASSERT_TRUE(f.x() == 0 && f.z() == 0) << f.transpose();
+  for (const Vec3& f : hd.all_forces("Right"))
+    ASSERT_TRUE(f.y() == 0 && f.z() == 0) << f.transpose();
   EXPECT_TRUE(hd.all_forces("Default Device").empty());
 
   // One closes: the other goes on in the same scheduler, started again for it.
@@ -163,7 +169,8 @@ TEST(HapticOpenHapticsMulti, TheSameConfigurationTwiceIsRefusedClearly) {
   auto again = palpate::open_openhaptics(PALPATE_FAKE_HD, "Left", {});
   ASSERT_FALSE(again.ok());
   std::string m = again.error().message;
-  EXPECT_NE(m.find("openhaptics: the HD device configuration 'Left' is already open in this process, by another "
+  EXPECT_NE(m.find("openhaptics: the HD device configuration 'Left' is already open in this "
+                   "process, by another "
                    "tool: each tool needs its own device"),
             std::string::npos)
       << m;
@@ -184,14 +191,17 @@ TEST(HapticOpenHapticsMulti, TheSameConfigurationTwiceIsRefusedClearly) {
   // An unknown name: the library's device fault, with the cable and Touch Setup to check.
   auto unknown = palpate::open_openhaptics(PALPATE_FAKE_HD, "Middle", {});
   ASSERT_FALSE(unknown.ok());
-  EXPECT_NE(unknown.error().message.find("no haptic device 'Middle' could be opened (HD error 0x0300)"),
-            std::string::npos)
+  EXPECT_NE(
+      unknown.error().message.find("no haptic device 'Middle' could be opened (HD error 0x0300)"),
+      std::string::npos)
       << unknown.error().message;
 
   // Both open devices still run, in the scheduler started again after each failed open.
   EXPECT_EQ(hd.scheduler_running(), 1);
   const long l = hd.device_frames("Left"), d = hd.device_frames("Default Device");
-  EXPECT_TRUE(eventually([&] { return hd.device_frames("Left") > l + 20 && hd.device_frames("Default Device") > d + 20; }));
+  EXPECT_TRUE(eventually([&] {
+    return hd.device_frames("Left") > l + 20 && hd.device_frames("Default Device") > d + 20;
+  }));
   palpate::DeviceState s;
   EXPECT_TRUE((*left)->read(0.0, s));
   EXPECT_TRUE((*first)->read(0.0, s));
@@ -210,20 +220,27 @@ TEST(HapticOpenHapticsMulti, TheSameConfigurationTwiceInASceneIsRefusedNamingThe
     auto r = palpate::parse_scene(yaml, "s.yaml");
     return r.ok() ? std::string("(loaded)") : r.error().message;
   };
-  const std::string two = "device:\n  kind: openhaptics\n  hd_device: Left\nprobe:\n  device:\n    kind: openhaptics\n"
-                          "    hd_device: ";
+  const std::string two =
+      "device:\n  kind: openhaptics\n  hd_device: Left\nprobe:\n  device:\n    kind: openhaptics\n"
+      "    hd_device: ";
   EXPECT_EQ(error_of(two + "Left\nanatomy: {kind: neck}\n"),
-            "s.yaml:7: probe.device.hd_device: 'Left' is already used by device.hd_device (line 3); each openhaptics "
+            "s.yaml:7: probe.device.hd_device: 'Left' is already used by device.hd_device (line "
+            "3); each openhaptics "
             "tool needs its own device: name the configurations Touch Setup gave your devices");
   EXPECT_EQ(error_of(two + "Right\nanatomy: {kind: neck}\n"), "(loaded)");
   // Both on the default configuration ("": hd_device left out).
-  EXPECT_EQ(error_of("device: {kind: openhaptics}\ngrasper:\n  device: {kind: openhaptics}\nanatomy: {kind: neck}\n"),
-            "s.yaml:3: grasper.device.hd_device: the default device (\"\") is already used by device.hd_device (line 1); "
-            "each openhaptics tool needs its own device: name the configurations Touch Setup gave your devices");
+  EXPECT_EQ(error_of("device: {kind: openhaptics}\ngrasper:\n  device: {kind: "
+                     "openhaptics}\nanatomy: {kind: neck}\n"),
+            "s.yaml:3: grasper.device.hd_device: the default device (\"\") is already used by "
+            "device.hd_device (line 1); "
+            "each openhaptics tool needs its own device: name the configurations Touch Setup gave "
+            "your devices");
   // A scripted tool names no HD device, whatever its hd_device says.
-  EXPECT_EQ(error_of("device: {kind: openhaptics, hd_device: Left}\ngrasper:\n  device: {hd_device: Left}\n"
-                     "anatomy: {kind: neck}\n"),
-            "(loaded)");
+  EXPECT_EQ(
+      error_of(
+          "device: {kind: openhaptics, hd_device: Left}\ngrasper:\n  device: {hd_device: Left}\n"
+          "anatomy: {kind: neck}\n"),
+      "(loaded)");
 }
 
 // Each device's own limits, read with it current: its nominal maximum force and the library's
@@ -234,8 +251,8 @@ TEST(HapticOpenHapticsMulti, EachDeviceItsOwnLimitsTheLowerOfItsAndTheScenes) {
   FakeHd hd;
   ASSERT_NE(hd.lib, nullptr) << ::dlerror();
   hd.reset(1);
-  hd.device_set_limits("Left", 2.0, 0.05);   // 2 N; 0.05 N/ms = 50 N/s
-  hd.device_set_limits("Right", 0.0, 0.5);   // reports no maximum: a Touch's 3.3 N; 500 N/s
+  hd.device_set_limits("Left", 2.0, 0.05);  // 2 N; 0.05 N/ms = 50 N/s
+  hd.device_set_limits("Right", 0.0, 0.5);  // reports no maximum: a Touch's 3.3 N; 500 N/s
   palpate::DeviceLimits asked;
   asked.max_force = 50.0;  // a scene's most
   asked.max_force_rate = 200.0;
@@ -281,7 +298,7 @@ TEST(HapticOpenHapticsMulti, ADeviceThatFailsIsZeroedAndTheOtherGoesOn) {
   FakeHd hd;
   ASSERT_NE(hd.lib, nullptr) << ::dlerror();
   hd.reset(1);
-  const double left_mm[3] = {0.0, -2.0, 0.0};   // 3 mm into the floor with a 1 mm sphere: 1.5 N
+  const double left_mm[3] = {0.0, -2.0, 0.0};    // 3 mm into the floor with a 1 mm sphere: 1.5 N
   const double right_mm[3] = {20.0, -3.0, 0.0};  // 3 mm into the wall: 1.5 N
   hd.device_set_poses("Left", left_mm, 1);
   hd.device_set_poses("Right", right_mm, 1);
@@ -301,7 +318,8 @@ TEST(HapticOpenHapticsMulti, ADeviceThatFailsIsZeroedAndTheOtherGoesOn) {
   s.try_realtime_priority = false;
   s.csv = csv;
   s.watchdog.overrun_margin = 0.015;  // the shared machine's delays are not what is tested here
-  auto loop = palpate::HapticLoop::create(**left, {{&floor, 0.0}}, s, {{"probe", right->get(), &wall, 0.02, std::nullopt}});
+  auto loop = palpate::HapticLoop::create(**left, {{&floor, 0.0}}, s,
+                                          {{"probe", right->get(), &wall, 0.02, std::nullopt}});
   ASSERT_TRUE(loop.ok()) << loop.error().message;
   ASSERT_TRUE((*loop)->start());
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -321,14 +339,20 @@ TEST(HapticOpenHapticsMulti, ADeviceThatFailsIsZeroedAndTheOtherGoesOn) {
   std::string header;
   std::getline(in, header);
   const auto names = palpate::test::csv_cells_of(header);
-  const auto col = [&](const char* name) { return size_t(std::find(names.begin(), names.end(), name) - names.begin()); };
+  const auto col = [&](const char* name) {
+    return size_t(std::find(names.begin(), names.end(), name) - names.begin());
+  };
   const size_t pf = col("probe_force_N"), pe = col("probe_events");
   ASSERT_LT(pe, names.size()) << header;
   const auto rows = palpate::test::read_run_rows(csv);
   ASSERT_EQ(rows.size(), 1400u);
   const auto probe_force = [&](size_t k) { return std::stod(rows[k].rest.at(pf - 15)); };
-  const auto probe_failed = [&](size_t k) { return rows[k].rest.at(pe - 15).find("device_failed") != std::string::npos; };
-  const auto needle_failed = [&](size_t k) { return rows[k].events.find("device_failed") != std::string::npos; };
+  const auto probe_failed = [&](size_t k) {
+    return rows[k].rest.at(pe - 15).find("device_failed") != std::string::npos;
+  };
+  const auto needle_failed = [&](size_t k) {
+    return rows[k].events.find("device_failed") != std::string::npos;
+  };
   const double step = 200.0 * 1e-3;  // N per tick at the default 200 N/s
 
   // A loaded machine may hold the fake's servo thread past a pose's 20 ms now and then: such a
@@ -354,22 +378,26 @@ TEST(HapticOpenHapticsMulti, ADeviceThatFailsIsZeroedAndTheOtherGoesOn) {
   EXPECT_GT(probe_force(first - 1), 1.0);  // it was pressing (1.5 N)
   for (size_t k = first; k < rows.size(); ++k) {
     ASSERT_TRUE(probe_failed(k)) << "tick " << rows[k].tick;
-    ASSERT_LE(probe_force(k), std::max(0.0, probe_force(k - 1) - step) + 1e-9) << "tick " << rows[k].tick;
+    ASSERT_LE(probe_force(k), std::max(0.0, probe_force(k - 1) - step) + 1e-9)
+        << "tick " << rows[k].tick;
   }
   EXPECT_EQ(probe_force(rows.size() - 1), 0.0);
   EXPECT_GE(st.tools.at(0).safety.device_failed, rows.size() - first);
   // Meanwhile the needle pressed on at its full 1.5 N, until its own device stalled.
   size_t pressing = 0;
   for (size_t k = first + 20; k < stall; ++k) pressing += std::abs(rows[k].force_n - 1.5) < 1e-9;
-  EXPECT_GE(double(pressing), 0.9 * double(stall - std::min(stall, first + 20))) << "the needle went on";
+  EXPECT_GE(double(pressing), 0.9 * double(stall - std::min(stall, first + 20)))
+      << "the needle went on";
   EXPECT_GT(stall, first + 200);
   size_t stalled = stall;
   while (stalled < rows.size() && !needle_failed(stalled)) ++stalled;
   ASSERT_LT(stalled, rows.size());
-  EXPECT_LE(rows[stalled].tick, long(stall_tick) + 20 + 60) << "stalled at about tick " << stall_tick;
+  EXPECT_LE(rows[stalled].tick, long(stall_tick) + 20 + 60)
+      << "stalled at about tick " << stall_tick;
   // Its stall: zeroed at the rate while stalled; pressing again at the full 1.5 N at the end.
   for (size_t k = stalled; k < rows.size() && needle_failed(k); ++k)
-    ASSERT_LE(rows[k].force_n, std::max(0.0, rows[k - 1].force_n - step) + 1e-9) << "tick " << rows[k].tick;
+    ASSERT_LE(rows[k].force_n, std::max(0.0, rows[k - 1].force_n - step) + 1e-9)
+        << "tick " << rows[k].tick;
   EXPECT_GT(st.safety.device_failed, 50u);
   EXPECT_LT(st.safety.device_failed, 400u);
   EXPECT_NEAR(rows.back().force_n, 1.5, 1e-9);
@@ -394,7 +422,8 @@ TEST(HapticOpenHapticsMulti, ARunWithTwoTouchDevicesOneUnpluggedWritesItsOutputs
   ASSERT_NE(hd.lib, nullptr) << ::dlerror();
   hd.reset(1);
   hd.device_set_limits("Left", 2.0, 1.0);  // below the scene's 3.3 N
-  const double left_mm[3] = {0.0, 30.0, 0.0}, right_mm[3] = {0.0, 11.0, 0.0};  // above the ball; on its top
+  const double left_mm[3] = {0.0, 30.0, 0.0},
+               right_mm[3] = {0.0, 11.0, 0.0};  // above the ball; on its top
   hd.device_set_poses("Left", left_mm, 1);
   hd.device_set_poses("Right", right_mm, 1);
   hd.device_fault("Right", kCommError, 1, 300);
@@ -403,10 +432,12 @@ TEST(HapticOpenHapticsMulti, ARunWithTwoTouchDevicesOneUnpluggedWritesItsOutputs
 dt: 0.001
 duration: 0.8
 tool: {kind: sphere, radius: 0.002}
-device: {kind: openhaptics, hd_library: ")" + lib + R"(", hd_device: Left}
+device: {kind: openhaptics, hd_library: ")" +
+                                        lib + R"(", hd_device: Left}
 grasper:
   radius: 0.003
-  device: {kind: openhaptics, hd_library: ")" + lib + R"(", hd_device: Right}
+  device: {kind: openhaptics, hd_library: ")" +
+                                        lib + R"(", hd_device: Right}
 tissues:
   - name: ball
     model: mass_spring
@@ -434,7 +465,8 @@ tissues:
   EXPECT_LE(j["safety"]["device_failed"].get<int>(), 20);
   EXPECT_EQ(j["safety"]["max_force_N"], 2.0);  // Left's own, lower than the scene's
   ASSERT_TRUE(j.contains("grasper")) << j.dump();
-  EXPECT_GT(j["grasper"]["safety"]["device_failed"].get<int>(), 300);  // from about its 300th frame on
+  EXPECT_GT(j["grasper"]["safety"]["device_failed"].get<int>(),
+            300);  // from about its 300th frame on
   EXPECT_EQ(j["grasper"]["safety"]["max_force_N"], 3.3);
   const auto rows = palpate::test::read_run_rows(out / "run.csv");
   ASSERT_EQ(rows.size(), 800u);
