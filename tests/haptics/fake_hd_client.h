@@ -1,5 +1,6 @@
 // fake_hd_client.h — the tests' handle on the fake OpenHaptics library (tests/fake_hd): its poses,
-// call counts and every force its servo sent, through dlsym.
+// call counts and every force its servo sent, through dlsym; per device by configuration name
+// ("Default Device", "Left", "Right") where the name is an argument.
 #pragma once
 
 #include <palpate/core.h>
@@ -25,8 +26,35 @@ struct FakeHd {
   void (*set_nan_position)(int) = nullptr;
   void (*set_calibration)(unsigned, int) = nullptr;
   int (*update_style)() = nullptr;
+  int (*init_while_running)() = nullptr;
+  int (*start_while_running)() = nullptr;
+  int (*scheduler_running)() = nullptr;
+  void (*device_stall)(const char*, int) = nullptr;
+  void (*device_fault)(const char*, unsigned, int, long) = nullptr;
+  void (*device_set_poses)(const char*, const double*, int) = nullptr;
+  void (*device_set_limits)(const char*, double, double) = nullptr;
+  int (*device_forces)(const char*, double*, int) = nullptr;
+  long (*device_frames)(const char*) = nullptr;
+  int (*device_initialised)(const char*) = nullptr;
+  int (*device_enabled)(const char*, unsigned) = nullptr;
+  template <class F>
+  void sym(F& f, const char* name) {
+    f = reinterpret_cast<F>(::dlsym(lib, name));
+  }
   FakeHd() {
-    set_calibration = reinterpret_cast<void (*)(unsigned, int)>(::dlsym(lib, "fake_hd_set_calibration"));
+    sym(init_while_running, "fake_hd_init_while_running");
+    sym(start_while_running, "fake_hd_start_while_running");
+    sym(scheduler_running, "fake_hd_scheduler_running");
+    sym(device_stall, "fake_hd_device_stall");
+    sym(device_fault, "fake_hd_device_fault");
+    sym(device_set_poses, "fake_hd_device_set_poses");
+    sym(device_set_limits, "fake_hd_device_set_limits");
+    sym(device_forces, "fake_hd_device_forces");
+    sym(device_frames, "fake_hd_device_frames");
+    sym(device_initialised, "fake_hd_device_initialised");
+    sym(device_enabled, "fake_hd_device_enabled");
+    set_calibration =
+        reinterpret_cast<void (*)(unsigned, int)>(::dlsym(lib, "fake_hd_set_calibration"));
     update_style = reinterpret_cast<int (*)()>(::dlsym(lib, "fake_hd_update_style"));
     stall = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_stall"));
     set_nan_position = reinterpret_cast<void (*)(int)>(::dlsym(lib, "fake_hd_set_nan_position"));
@@ -46,12 +74,14 @@ struct FakeHd {
     if (n == 0 || n > 100000) return Vec3::Constant(-1);
     return Vec3(f[size_t(n - 1) * 3], f[size_t(n - 1) * 3 + 1], f[size_t(n - 1) * 3 + 2]);
   }
-  // Every force the servo sent, in order.
-  std::vector<Vec3> all_forces() {
+  // Every force the servo sent, in order (to the named device; null: the default one).
+  std::vector<Vec3> all_forces(const char* device = nullptr) {
     std::vector<double> f(3 * 200000);
-    const int n = std::min(forces(f.data(), 200000), 200000);
+    const int n = std::min(
+        device ? device_forces(device, f.data(), 200000) : forces(f.data(), 200000), 200000);
     std::vector<Vec3> out;
-    for (int i = 0; i < n; ++i) out.emplace_back(f[size_t(i) * 3], f[size_t(i) * 3 + 1], f[size_t(i) * 3 + 2]);
+    for (int i = 0; i < n; ++i)
+      out.emplace_back(f[size_t(i) * 3], f[size_t(i) * 3 + 1], f[size_t(i) * 3 + 2]);
     return out;
   }
 };
