@@ -49,3 +49,53 @@ static void BM_ForceSafetyFilter(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_ForceSafetyFilter);
+
+#if defined(PALPATE_FAKE_HD) && defined(PALPATE_FAKE_DHD)
+#include <palpate/run.h>
+
+#include "haptics/two_families.h"
+
+#include <cstdlib>
+#include <filesystem>
+
+// Issue 38's bench (docs/BENCHMARKS.md, "Two device families"): the realtime CVC scene with the
+// needle on a Touch (the fake libHD) and the probe on an omega.7 (the fake libdhd), both backends'
+// servo threads and the haptic thread in one process, for PALPATE_REALTIME_SECONDS (default 2; the
+// figure in the docs is a 60 s run). Reports the haptic period's median / p99 / max (ms), deadline
+// misses, the step's p99 (µs) and each device's failed ticks.
+static void BM_TwoDeviceFamiliesCvc(benchmark::State& state) {
+  const char* env = std::getenv("PALPATE_REALTIME_SECONDS");
+  const double seconds = env ? std::max(0.5, std::atof(env)) : 2.0;
+  for (auto _ : state) {
+    palpate::test::FakeHd hd;
+    palpate::test::FakeDhd dhd;
+    palpate::SceneDef scene;
+    if (const std::string e = palpate::test::two_families_cvc(scene, hd, dhd, seconds); !e.empty()) {
+      state.SkipWithError(e.c_str());
+      return;
+    }
+    palpate::RunOptions o;
+    o.out = std::filesystem::temp_directory_path() / "palpate_bench_two_families";
+    o.plots = false;
+    o.realtime = true;
+    o.realtime_priority = state.range(0) != 0;
+    auto r = palpate::run_scene(scene, o);
+    if (!r) {
+      state.SkipWithError(r.error().message.c_str());
+      return;
+    }
+    state.SetIterationTime(double(r->ticks) * r->dt);
+    state.counters["ticks"] = double(r->ticks);
+    state.counters["period_median_ms"] = r->period.median * 1e3;
+    state.counters["period_p99_ms"] = r->period.p99 * 1e3;
+    state.counters["period_max_ms"] = r->period.max * 1e3;
+    state.counters["step_p99_us"] = r->step_p99 * 1e6;
+    state.counters["deadline_misses"] = double(r->deadline_misses);
+    state.counters["needle_device_failed"] = double(r->safety.device_failed);
+    state.counters["probe_device_failed"] = r->tools.empty() ? -1.0 : double(r->tools[0].safety.device_failed);
+    std::error_code ec;
+    std::filesystem::remove_all(o.out, ec);
+  }
+}
+BENCHMARK(BM_TwoDeviceFamiliesCvc)->Arg(0)->Arg(1)->ArgName("fifo")->Iterations(1)->UseManualTime()->Unit(benchmark::kMillisecond);
+#endif

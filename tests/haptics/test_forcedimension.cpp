@@ -471,7 +471,7 @@ TEST(ForceDimension, AFaultMidRunZeroesOnlyThatToolWithinTheRateLimit) {
     s.csv = fs::temp_directory_path() / "palpate_test_forcedimension_fault" / "run.csv";
     fs::create_directories(s.csv.parent_path());
     auto built = palpate::HapticLoop::create(needle, {{&floor, 0.0}}, s,
-                                             {{"probe", d->get(), &wall, 0.02, std::nullopt}});
+                                             {{"probe", d->get(), &wall, 0.02, std::nullopt, {}}});
     ASSERT_TRUE(built.ok()) << built.error().message;
     ASSERT_TRUE((*built)->start());
     std::this_thread::sleep_for(std::chrono::milliseconds(250));

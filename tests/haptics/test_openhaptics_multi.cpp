@@ -319,7 +319,7 @@ TEST(HapticOpenHapticsMulti, ADeviceThatFailsIsZeroedAndTheOtherGoesOn) {
   s.csv = csv;
   s.watchdog.overrun_margin = 0.015;  // the shared machine's delays are not what is tested here
   auto loop = palpate::HapticLoop::create(**left, {{&floor, 0.0}}, s,
-                                          {{"probe", right->get(), &wall, 0.02, std::nullopt}});
+                                          {{"probe", right->get(), &wall, 0.02, std::nullopt, {}}});
   ASSERT_TRUE(loop.ok()) << loop.error().message;
   ASSERT_TRUE((*loop)->start());
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
