@@ -573,3 +573,40 @@ TEST_F(View, ABladesWoundIsDrawnOpenTheBackgroundShowsThroughIt) {
   EXPECT_GT(enclosed[1], 200) << "the background shows through the open wound";
   std::printf("enclosed background pixels: %d uncut, %d cut\n", enclosed[0], enclosed[1]);
 }
+
+namespace {
+
+// A tool the scene puts on a haptic device is that device's in the viewer, not the mouse's
+// (docs/haptics.md, "Several devices"): the sheet scene with its sphere on an omega played by the
+// fake libdhd.so.3 (FAKE_DHD_POSES: down from 10 mm above the sheet to 1 mm above its plane, the
+// 3 mm sphere 2 mm in, in 0.3 s, then held). The viewer draws the tool where the device is and
+// feels the sheet's push.
+TEST_F(View, AToolOnAHapticDeviceIsDrawnWhereTheDeviceIsAndFeelsTheTissue) {
+  std::string text;
+  {
+    std::ifstream in(scene_);
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::string scripted = "device:\n  kind: scripted\n  waypoints:\n    - {t: 0, position: [0, 0.01, 0]}\n";
+  ASSERT_NE(text.find(scripted), std::string::npos);
+  text.replace(text.find(scripted), scripted.size(),
+               "device: {kind: forcedimension, dhd_library: \"" + std::string(PALPATE_FAKE_DHD) + "\"}\n");
+  const fs::path file = dir_ / "sheet_omega.yaml";
+  std::ofstream(file) << text;
+  const fs::path poses = dir_ / "omega.csv";
+  std::ofstream(poses) << "t,x,y,z\n0,0,0.01,0\n0.3,0,0.001,0\n100,0,0.001,0\n";
+  Ran r = run(std::string("FAKE_DHD_POSES=") + poses.string() + " LIBGL_ALWAYS_SOFTWARE=1 " + kViewLeakCheck +
+              "xvfb-run -a -s '-screen 0 1024x768x24' " + PALPATE_CLI + " view " + file.string() +
+              " --frames 60 --exit --no-panels --no-report --overrun-margin 0.05");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NEAR(number_after(r.out, "tool: 0.000000 "), 0.001, 2e-4) << r.out;  // y, where the omega is
+  double fx = 0, fy = 0, fz = 0;  // the sheet pushes it back up (0.019 N)
+  const size_t at = r.out.find("\nforce: ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  ASSERT_EQ(std::sscanf(r.out.c_str() + at, "\nforce: %lf %lf %lf", &fx, &fy, &fz), 3) << r.out;
+  EXPECT_GT(fy, 0.01) << r.out;
+  EXPECT_LT(std::hypot(fx, fz), 1e-3) << r.out;
+  EXPECT_NE(r.out.find("device_failed 0"), std::string::npos) << r.out;
+}
+
+}  // namespace

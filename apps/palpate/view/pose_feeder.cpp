@@ -30,6 +30,15 @@ void PoseFeeder::set_target(const Vec3& target) {
   arrived_ = (target_ - position_).norm() < 1e-9;
 }
 
+void PoseFeeder::follow(const Vec3& position, const Quat& orientation) {
+  if (!position.allFinite() || !orientation.coeffs().allFinite()) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  position_ = target_ = position;
+  orientation_ = orientation_target_ = orientation;
+  pivoting_ = false;
+  arrived_ = true;
+}
+
 void PoseFeeder::set_pivot(const Vec3& pivot, double beyond, const Vec3& tool_axis) {
   if (!pivot.allFinite() || !std::isfinite(beyond) || !tool_axis.allFinite() || !(tool_axis.norm() > 0)) return;
   std::lock_guard lock(mutex_);

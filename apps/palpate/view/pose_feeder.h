@@ -28,6 +28,9 @@ class PoseFeeder {
   PoseFeeder& operator=(const PoseFeeder&) = delete;
 
   void set_target(const Vec3& target);      // m; GUI thread (ends a turn about a pivot)
+  // Put the pose at once where a hardware device is (the viewer drawing a tool a haptic device
+  // holds, not the mouse): position, target and orientation all at it, nothing left to walk.
+  void follow(const Vec3& position, const Quat& orientation);
   // Turn a needle about a point on its shaft (the skin hole it went in through): from now until the
   // next set_target, each millisecond's target is pivot + beyond · the needle's direction at that
   // millisecond's orientation (needle_axis of `tool_axis`), so the shaft passes through the pivot

@@ -32,12 +32,19 @@ int Viewer::build_simulation() {
   }
   device_ = std::make_unique<VirtualDevice>(device_limits(scene_.device));
   if (scene_.probe && scene_.anatomy) probe_device_ = std::make_unique<VirtualDevice>(device_limits(scene_.probe->device));
-  auto sim = Simulation::build(scene_, view_simulation_options(options_, device_.get(), probe_device_.get()));
+  // A tool on a haptic device is driven by that device (several at once, any mix of backends:
+  // docs/haptics.md, "Several devices"); the mouse drives the others.
+  const auto hardware = [](const DeviceDef& d) { return d.kind == "openhaptics" || d.kind == "forcedimension"; };
+  hardware_tool_ = hardware(scene_.device);
+  hardware_probe_ = probe_device_ && hardware(scene_.probe->device);
+  auto sim = Simulation::build(scene_, view_simulation_options(options_, hardware_tool_ ? nullptr : device_.get(),
+                                                               hardware_probe_ ? nullptr : probe_device_.get()));
   if (!sim) {
     fmt::print(stderr, "palpate view: {}\n", sim.error().message);
     return cli::kExitFailed;
   }
   sim_ = std::move(*sim);
+  if (const SimulationTool* probe = sim_->tool("probe")) probe_loop_index_ = probe->loop_index;
   scene_ = sim_->scene();  // with the anatomy's layers generated: the panels edit every tissue
   for (size_t i = 0; i < sim_->tissue_count(); ++i) tissues_.push_back(sim_->snapshot(i));
   views_.resize(tissues_.size());
@@ -520,12 +527,13 @@ int Viewer::run() {
       pending_keys_.erase(pending_keys_.begin());
     }
     play_script(frames > 0 ? frame_dt : 0);  // the script's clock into the feeders' targets
-    force_ = device_->force();
+    follow_hardware();
+    force_ = tool_force();
     const double t = std::chrono::duration<double>(now - start_).count();
     force_history_.emplace_back(t, static_cast<float>(force_.norm()));
     while (!force_history_.empty() && force_history_.front().first < t - 6.0) force_history_.pop_front();
     if (probe_device_) {
-      probe_history_.emplace_back(t, static_cast<float>(probe_device_->force().norm()));
+      probe_history_.emplace_back(t, static_cast<float>(probe_force().norm()));
       while (!probe_history_.empty() && probe_history_.front().first < t - 6.0) probe_history_.pop_front();
     }
 
@@ -595,13 +603,33 @@ int Viewer::run() {
       break;
     }
   }
-  force_ = device_->force();
+  force_ = tool_force();
   end_attempt();  // the last attempt, with the loop's metrics now
   if (!write_report() && code == 0) code = 1;
   if (!options_.quiet) report_exit(frames);
   std::fflush(stdout);
   stop_loop();
   return code;
+}
+
+
+void Viewer::follow_hardware() {
+  if (!loop_) return;
+  if (hardware_tool_ && feeder_)
+    if (const ToolSample t = loop_->tool_sample(0); t.valid) feeder_->follow(t.position, t.orientation);
+  if (hardware_probe_ && probe_feeder_)
+    if (const ToolSample p = loop_->tool_sample(probe_loop_index_); p.valid)
+      probe_feeder_->follow(p.position, p.orientation);
+}
+
+Vec3 Viewer::tool_force() const {
+  if (hardware_tool_) return loop_ ? loop_->tool_sample(0).force : Vec3(Vec3::Zero());
+  return device_->force();
+}
+
+Vec3 Viewer::probe_force() const {
+  if (hardware_probe_) return loop_ ? loop_->tool_sample(probe_loop_index_).force : Vec3(Vec3::Zero());
+  return probe_device_ ? probe_device_->force() : Vec3(Vec3::Zero());
 }
 
 }  // namespace detail
@@ -646,7 +674,7 @@ void detail::Viewer::report_exit(int frames) {
     fmt::print("probe_view: {}\n", probe_in_plane() ? "in-plane" : "out-of-plane");
     const Vec3 p = probe_feeder_->position();
     fmt::print("probe: {:.6f} {:.6f} {:.6f}\n", p.x(), p.y(), p.z());
-    fmt::print("probe_force_N: {:.6f}\n", probe_device_->force().norm());
+    fmt::print("probe_force_N: {:.6f}\n", probe_force().norm());
     fmt::print("ultrasound_images: {} rendered, {} shown\n", us_feed_ ? us_feed_->rendered() : 0, us_shown_);
   }
   if (!report_written_.empty()) fmt::print("report: {} ({} attempts)\n", report_written_.string(), attempts_.size());

@@ -156,6 +156,13 @@ class Viewer {
   // Destruction order matters: the loop stops first, then the feeders, then the Simulation (its
   // tissues and loop), then the devices it was handed.
   std::unique_ptr<VirtualDevice> device_;
+  // A tool the scene puts on a haptic device (openhaptics, forcedimension) is that device's, not the
+  // mouse's: the Simulation opens it, and each frame its feeder follows the loop's sample of it.
+  bool hardware_tool_ = false, hardware_probe_ = false;
+  size_t probe_loop_index_ = 0;  // HapticLoop::tool_sample index of the probe
+  void follow_hardware();        // the hardware tools' feeders to their devices' poses (each frame)
+  Vec3 probe_force() const;      // N, the force the probe's device was last sent
+  Vec3 tool_force() const;       // N, the force the tool's device was last sent
   std::vector<SnapshotTissue*> tissues_;  // the Simulation's, each handing its drawn state over
   std::vector<TissueView> views_;
   std::vector<bool> drawn_;  // per tissue: whether its surface was drawn this frame

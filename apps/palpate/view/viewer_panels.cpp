@@ -72,7 +72,7 @@ void Viewer::draw_ultrasound_panel() {
   }
   const Vec3 p = probe_feeder_->position();
   ImGui::Text("probe %.1f, %.1f, %.1f mm  |F| %.2f N", 1e3 * p.x(), 1e3 * p.y(), 1e3 * p.z(),
-              probe_device_->force().norm());
+              probe_force().norm());
   if (us_feed_)
     ImGui::Text("%s  %.1f ms per image", us_image_.in_contact ? "on the skin" : "not touching",
                 1e3 * us_feed_->last_render_seconds());

@@ -42,8 +42,8 @@ void Viewer::record_attempt(int fb_width, int fb_height) {
   const double t = std::chrono::duration<double>(Clock::now() - attempt_start_).count();
   // The traces at no more than 50 points a second (a frame's force is the device's last).
   if (attempt_force_.empty() || t - attempt_force_.back()[0] >= 0.02) {
-    attempt_force_.push_back({t, device_->force().norm()});
-    if (probe_device_) attempt_probe_force_.push_back({t, probe_device_->force().norm()});
+    attempt_force_.push_back({t, tool_force().norm()});
+    if (probe_device_) attempt_probe_force_.push_back({t, probe_force().norm()});
   }
   const TrainingMetrics m = loop_->stats().metrics;
   auto frame = [&](const char* what) {
@@ -53,13 +53,13 @@ void Viewer::record_attempt(int fb_width, int fb_height) {
   };
   // The events are the live metrics' changes (the loop's own event list stays on its thread).
   if (m.skin_punctures > seen_.skin_punctures) {
-    attempt_.events.push_back({t, "puncture", "skin", 0, device_->force().norm()});
+    attempt_.events.push_back({t, "puncture", "skin", 0, tool_force().norm()});
     if (seen_.skin_punctures == 0) frame("the first skin puncture");
   }
-  if (m.redirections > seen_.redirections) attempt_.events.push_back({t, "redirect", "", 0, device_->force().norm()});
+  if (m.redirections > seen_.redirections) attempt_.events.push_back({t, "redirect", "", 0, tool_force().norm()});
   const bool venous = m.flashback && !seen_.flashback, arterial = m.arterial_flashback && !seen_.arterial_flashback;
-  if (venous) attempt_.events.push_back({t, "flashback", "vein", 0, device_->force().norm()});
-  if (arterial) attempt_.events.push_back({t, "arterial_flashback", "artery", 0, device_->force().norm()});
+  if (venous) attempt_.events.push_back({t, "flashback", "vein", 0, tool_force().norm()});
+  if (arterial) attempt_.events.push_back({t, "arterial_flashback", "artery", 0, tool_force().norm()});
   if ((venous || arterial) && !attempt_.ultrasound) {
     frame(venous ? "the flashback" : "the arterial flashback");
     std::string png = ultrasound_png(us_image_);
