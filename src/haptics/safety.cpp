@@ -110,6 +110,7 @@ PassivityController::PassivityController(const DeviceLimits& limits, const Passi
   if (!(settings_.velocity_floor > 0) || !std::isfinite(settings_.velocity_floor)) settings_.velocity_floor = 0.01;
   if (!(settings_.window >= 0) || !std::isfinite(settings_.window)) settings_.window = 0.03;
   if (!(settings_.free_force >= 0) || !std::isfinite(settings_.free_force)) settings_.free_force = 1e-3;
+  if (!(settings_.damping_rise >= 0) || !std::isfinite(settings_.damping_rise)) settings_.damping_rise = 0.003;
 }
 
 void PassivityController::reset() noexcept {
@@ -123,6 +124,7 @@ void PassivityController::reset() noexcept {
 }
 
 Vec3 PassivityController::control(const Vec3& requested, const Vec3& position, const Vec3& velocity, double dt) noexcept {
+  const double before = alpha_;
   alpha_ = 0;
   // The work of the force held since the last tick over the device's motion since then.
   if (position.allFinite()) {
@@ -132,18 +134,26 @@ Vec3 PassivityController::control(const Vec3& requested, const Vec3& position, c
     counters_.min_energy = std::min(counters_.min_energy, energy_);
   }
   if (!settings_.enabled || !requested.allFinite() || !velocity.allFinite() || !(dt > 0)) return requested;
-  // The energy at the next tick if the request were sent as it is, the device going on at v.
+  // The energy at the next tick if the request were sent as it is, the device going on at v; the
+  // damping that would absorb its deficit (a deficit of round-off, under a picojoule, is none).
   const double predicted = energy_ - requested.dot(velocity) * dt;
-  // (A deficit of round-off, under a picojoule, is none: no damping counted for it.)
-  if (predicted >= -1e-12) return requested;
-  const double floor2 = settings_.velocity_floor * settings_.velocity_floor;
-  double alpha = -predicted / (dt * std::max(velocity.squaredNorm(), floor2));
-  ++counters_.active_ticks;
-  if (!(alpha <= max_alpha_)) {
-    alpha = max_alpha_;
-    ++counters_.capped_ticks;
+  double needed = 0;
+  if (predicted < -1e-12) {
+    const double floor2 = settings_.velocity_floor * settings_.velocity_floor;
+    needed = -predicted / (dt * std::max(velocity.squaredNorm(), floor2));
+    if (!(needed <= max_alpha_)) {
+      needed = max_alpha_;
+      ++counters_.capped_ticks;
+    }
   }
+  // α moves towards what is needed by at most its cap per `damping_rise` (3 ms): switched on or
+  // off in one tick it would step the force by α·v, a catch the hand feels (0.02 N measured on the
+  // probe scene); a deficit left meanwhile is paid back by the ticks after.
+  const double step = settings_.damping_rise > 0 ? max_alpha_ * dt / settings_.damping_rise : max_alpha_;
+  const double alpha = std::clamp(needed, std::max(0.0, before - step), before + step);
+  if (!(alpha > 1e-9 * max_alpha_)) return requested;  // (round-off of the slew: none)
   alpha_ = alpha;
+  ++counters_.active_ticks;
   counters_.max_damping = std::max(counters_.max_damping, alpha);
   counters_.dissipated += alpha * velocity.squaredNorm() * dt;
   return requested - alpha * velocity;

@@ -35,6 +35,13 @@ DeviceLimits limits_with_damping(double damping) {
   return l;
 }
 
+// The law itself: α set at once, not slewed (PassivitySettings::damping_rise 0).
+PassivitySettings instant() {
+  PassivitySettings p;
+  p.damping_rise = 0;
+  return p;
+}
+
 // --- The law, tick by tick.
 
 // A device moving at a constant velocity, ticked through a controller: each tick it moves v·dt, the
@@ -53,7 +60,7 @@ struct Ticker {
 };
 
 TEST(Passivity, AnActiveForceGetsExactlyTheDampingThatBringsTheEnergyBackToZero) {
-  PassivityController pc(limits_with_damping(20.0), {});
+  PassivityController pc(limits_with_damping(20.0), instant());
   Ticker t{pc};
   const Vec3 v(0.1, 0, 0), f(1, 0, 0);  // the force along the hand's motion: it would give energy
   const Vec3 out = t.tick(f, v);
@@ -93,7 +100,7 @@ TEST(Passivity, APassiveForceIsLeftAloneAndItsEnergyIsCounted) {
 }
 
 TEST(Passivity, TheDampingIsCappedBelowTheDevicesOwnLimitAndTheDeficitCarriedOn) {
-  PassivityController pc(limits_with_damping(2.0), {});  // cap 0.9 · 2 = 1.8 N·s/m
+  PassivityController pc(limits_with_damping(2.0), instant());  // cap 0.9 · 2 = 1.8 N·s/m
   Ticker t{pc};
   EXPECT_DOUBLE_EQ(pc.max_damping(), 1.8);
   const Vec3 v(0.1, 0, 0), f(1, 0, 0);
@@ -110,8 +117,36 @@ TEST(Passivity, TheDampingIsCappedBelowTheDevicesOwnLimitAndTheDeficitCarriedOn)
   EXPECT_GT(ticks, 2);
 }
 
+TEST(Passivity, TheDampingRisesAndFallsOverItsRiseTimeNeverSteppingTheForce) {
+  PassivitySettings p;
+  p.damping_rise = 0.01;
+  PassivityController pc(limits_with_damping(2.0), p);  // cap 1.8 N·s/m, reached over 10 ms
+  Ticker t{pc};
+  const Vec3 v(0.1, 0, 0), f(1, 0, 0);
+  Vec3 last = f;
+  for (int i = 1; i <= 12; ++i) {
+    const Vec3 out = t.tick(f, v);
+    EXPECT_NEAR(pc.damping(), std::min(1.8, 0.18 * i), 1e-12) << "tick " << i;
+    EXPECT_LE((out - last).norm(), 0.18 * 0.1 + 1e-12) << "tick " << i;  // α·v changes by 0.018 N a tick at most
+    last = out;
+  }
+  // The hand turned back against the force (passive): once the deficit is paid back the damping
+  // goes as it came, 0.18 N·s/m a tick: the force changes by α's step times |v| a tick, no more.
+  int ticks = 0, falling = 0;
+  Vec3 prev = t.tick(f, -v);
+  double alpha = pc.damping();
+  while (pc.damping() > 0 && ticks < 200) {
+    const Vec3 out = t.tick(f, -v);
+    EXPECT_LE((out - prev).norm(), 0.18 * 0.1 + 1e-12) << "tick " << ticks;
+    falling += pc.damping() < alpha;
+    alpha = pc.damping(), prev = out, ++ticks;
+  }
+  EXPECT_EQ(pc.damping(), 0.0);
+  EXPECT_GE(falling, 9);
+}
+
 TEST(Passivity, SlowMotionIsDampedAsIfAtTheVelocityFloor) {
-  PassivityController pc(limits_with_damping(1e6), {});  // no cap in the way
+  PassivityController pc(limits_with_damping(1e6), instant());  // no cap in the way
   Ticker t{pc};
   t.tick(Vec3(1, 0, 0), Vec3(1e-4, 0, 0));
   // |v|² = 1e-8 is floored at 1e-4: α = f·v·dt / (dt · 1e-4) = 1 N·s/m, not 1e4.

@@ -100,7 +100,9 @@ class ForceSafety {
 // hand energy it never put in — a stiff wall sampled too slowly, a delay, a coupling too stiff), the
 // controller adds the damping that absorbs the deficit,
 //   α = −E_pred / (Δt · max(|v|², v_floor²)),   f ← f − α v,
-// capped at `max_damping_fraction` of the device's own damping limit (DeviceLimits::damping).
+// capped at `max_damping_fraction` of the device's own damping limit (DeviceLimits::damping), and
+// slewed: α moves towards that by at most its cap per `damping_rise` (3 ms), so switching it on or
+// off never steps the force (a deficit left meanwhile is paid back by the ticks after).
 // Forgetting: energy a tissue stored (a pressed spring) may come back to the hand, so it is never
 // forgotten while the tool is loaded; once the force sent has stayed below `free_force` for a whole
 // `window` nothing is stored between tool and tissue any more, and the credit left is energy the
@@ -112,6 +114,7 @@ struct PassivitySettings {
   double velocity_floor = 0.01;       // m/s, |v|² is floored at its square (1e-4 m²/s²)
   double max_damping_fraction = 0.9;  // α <= this × DeviceLimits::damping
   double free_force = 1e-3;           // N, a force below this stores nothing in the contact
+  double damping_rise = 0.003;        // s, α changes by at most its cap over this (0: at once)
 };
 
 // The settings a scene's device section gives (its passivity* keys).
