@@ -582,6 +582,10 @@ namespace {
 // 3 mm sphere 2 mm in, in 0.3 s, then held). The viewer draws the tool where the device is and
 // feels the sheet's push.
 TEST_F(View, AToolOnAHapticDeviceIsDrawnWhereTheDeviceIsAndFeelsTheTissue) {
+  // Under a sanitizer the viewer's realtime loop misses every deadline and the fake's servo thread
+  // is held past the SDK's watchdog (measured under ASan: 3,079 of 3,079 ticks late, the device
+  // failed): a realtime device test for the release suite (as TwoDeviceFamilies).
+  if (kSanitized) GTEST_SKIP() << "realtime device timing: release suite only";
   std::string text;
   {
     std::ifstream in(scene_);

@@ -686,7 +686,8 @@ int fake_dhd_forces(int i, double* out, int max) {
   std::lock_guard<std::mutex> lock(fake().m);
   const std::vector<double>& a = fake().devs[size_t(i)].applied;
   const int n = int(a.size() / 7);
-  std::memcpy(out, a.data(), sizeof(double) * 7 * size_t(std::max(0, std::min(n, max))));
+  if (n > 0 && max > 0)  // (memcpy from an empty vector's null data() is undefined, even for 0 bytes)
+    std::memcpy(out, a.data(), sizeof(double) * 7 * size_t(std::min(n, max)));
   return n;
 }
 

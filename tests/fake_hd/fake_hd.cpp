@@ -436,7 +436,8 @@ FakeDevice* named(Fake& f, const char* name) {
 int copy_forces(const FakeDevice* d, double* out, int max) {
   if (!d) return 0;
   const int n = int(d->forces.size() / 3);
-  std::memcpy(out, d->forces.data(), sizeof(double) * 3 * size_t(std::min(n, max)));
+  if (n > 0 && max > 0)  // (memcpy from an empty vector's null data() is undefined, even for 0 bytes)
+    std::memcpy(out, d->forces.data(), sizeof(double) * 3 * size_t(std::min(n, max)));
   return n;
 }
 }  // namespace
