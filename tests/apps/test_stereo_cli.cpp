@@ -7,6 +7,8 @@
 #include "png_read.h"
 #include "shell_run.h"
 
+#include "apps/stereo_sheet.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -30,18 +32,9 @@ class StereoRun : public ::testing::Test {
     dir_ = fs::path(::testing::TempDir()) / ("palpate_stereo_run_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
-    // A 40 x 40 mm sheet at y = 0, the 3 mm sphere held still 10 mm above its centre (never
-    // touching it: no force arrow), and the camera level with the sphere, 60 mm in front of it,
-    // looking past it at a target 100 mm away: the sphere is seen against the background.
+    // The sheet, the sphere over it and the camera past it (stereo_sheet.h).
     scene_ = dir_ / "sheet.yaml";
-    std::ofstream(scene_) << "name: stereo-sheet\nduration: 0.01\ndt: 0.001\noutput: out\n"
-                             "tool: {kind: sphere, radius: 0.003}\n"
-                             "device:\n  kind: scripted\n  waypoints:\n    - {t: 0, position: [0, 0.01, 0]}\n"
-                             "camera: {position: [0, 0.01, 0.06], target: [0, 0.01, -0.04], fov: 40, width: 200, height: 150}\n"
-                             "tissues:\n  - name: sheet\n    model: mass_spring\n"
-                             "    patch: {shape: flat, width: 0.04, height: 0.04, spacing: 0.004}\n"
-                             "    material: {topology: edges, solver: desbrun, stiffness: 200, gravity: false}\n"
-                             "    anchors: [0, 10, 110, 120]\n";
+    palpate::test::write_stereo_sheet(scene_, "stereo-sheet", 0.01, 200, 150);
   }
   void TearDown() override {
     if (!dir_.empty()) fs::remove_all(dir_);

@@ -2,6 +2,8 @@
 // software OpenGL, as tests/test_view.cpp runs the viewer: each one-window layout by the content of
 // its exit screenshot (the tool's disparity the closed form's within a pixel), and quad-buffer
 // refused, naming what is missing, where the display offers no stereo context (Xvfb never does).
+#include "apps/stereo_sheet.h"
+
 #include <gtest/gtest.h>
 #include <palpate/render.h>
 
@@ -77,19 +79,9 @@ class ViewStereo : public ::testing::Test {
     dir_ = fs::path(::testing::TempDir()) / ("palpate_view_stereo_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
-    // A sheet 40 x 40 mm at y = 0 (its corners held, no gravity), the 3 mm sphere parked 10 mm over
-    // its centre, and the camera level with the sphere looking past it at a target 100 mm away:
-    // the sphere, 60 mm from the eye, is in front of the convergence plane and seen against the
-    // background.
+    // The sheet, the sphere over it and the camera past it (stereo_sheet.h).
     scene_ = dir_ / "sheet.yaml";
-    std::ofstream(scene_) << "name: view-stereo\nduration: 1\ndt: 0.001\noutput: out\n"
-                             "tool: {kind: sphere, radius: 0.003}\n"
-                             "device:\n  kind: scripted\n  waypoints:\n    - {t: 0, position: [0, 0.01, 0]}\n"
-                             "camera: {position: [0, 0.01, 0.06], target: [0, 0.01, -0.04], fov: 40, width: 400, height: 300}\n"
-                             "tissues:\n  - name: sheet\n    model: mass_spring\n"
-                             "    patch: {shape: flat, width: 0.04, height: 0.04, spacing: 0.004}\n"
-                             "    material: {topology: edges, solver: desbrun, stiffness: 200, gravity: false}\n"
-                             "    anchors: [0, 10, 110, 120]\n";
+    palpate::test::write_stereo_sheet(scene_, "view-stereo", 1, 400, 300);
   }
   void TearDown() override {
     if (!dir_.empty()) fs::remove_all(dir_);
